@@ -1,0 +1,239 @@
+#include "sagitta/evaluate.hpp"
+
+#include <glm/geometric.hpp>
+
+#include <cmath>
+
+namespace sagitta {
+
+double binomial(int n, int k) {
+  if (k < 0 || k > n) return 0.0;
+  double r = 1.0;
+  for (int i = 1; i <= k; ++i) r = r * (n - k + i) / i;
+  return std::round(r);
+}
+
+template <class T>
+std::array<T, 3> de_casteljau(const BezierPatch& patch, T u, T v) {
+  const int n = patch.degree_u, m = patch.degree_v;
+  // Homogeneous rows: collapse each row i over v, then the column over u.
+  std::vector<std::array<T, 4>> rowpts(static_cast<size_t>(n + 1));
+  std::vector<std::array<T, 4>> work(static_cast<size_t>(std::max(n, m) + 1));
+  for (int i = 0; i <= n; ++i) {
+    for (int j = 0; j <= m; ++j) {
+      const T w = static_cast<T>(patch.weight(i, j));
+      const Vec3& p = patch.at(i, j);
+      work[static_cast<size_t>(j)] = {w * static_cast<T>(p.x), w * static_cast<T>(p.y), w * static_cast<T>(p.z), w};
+    }
+    for (int r = 1; r <= m; ++r) {
+      for (int j = 0; j <= m - r; ++j) {
+        for (int c = 0; c < 4; ++c) work[j][c] = (T(1) - v) * work[j][c] + v * work[j + 1][c];
+      }
+    }
+    rowpts[static_cast<size_t>(i)] = work[0];
+  }
+  for (int r = 1; r <= n; ++r) {
+    for (int i = 0; i <= n - r; ++i) {
+      for (int c = 0; c < 4; ++c) rowpts[i][c] = (T(1) - u) * rowpts[i][c] + u * rowpts[i + 1][c];
+    }
+  }
+  const auto& h = rowpts[0];
+  return {h[0] / h[3], h[1] / h[3], h[2] / h[3]};
+}
+
+template std::array<double, 3> de_casteljau<double>(const BezierPatch&, double, double);
+template std::array<long double, 3> de_casteljau<long double>(const BezierPatch&, long double, long double);
+
+namespace {
+
+using H = std::array<double, 4>;
+
+// De Casteljau on homogeneous points; returns value and derivative d/dt.
+void curve_with_derivative(std::vector<H>& pts, double t, H& value, H& derivative) {
+  const int d = static_cast<int>(pts.size()) - 1;
+  for (int r = 1; r < d; ++r) {
+    for (int k = 0; k <= d - r; ++k) {
+      for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
+    }
+  }
+  for (int c = 0; c < 4; ++c) {
+    value[c] = (1.0 - t) * pts[0][c] + t * pts[1][c];
+    derivative[c] = d * (pts[1][c] - pts[0][c]);
+  }
+}
+
+Vec3 project(const H& h) { return Vec3(h[0], h[1], h[2]) / h[3]; }
+
+Vec3 project_derivative(const H& h, const H& dh) {
+  const Vec3 s = project(h);
+  return (Vec3(dh[0], dh[1], dh[2]) - s * dh[3]) / h[3];
+}
+
+}  // namespace
+
+Vec3 de_casteljau_curve(const std::vector<Vec3>& points, const std::vector<double>& weights, double t) {
+  std::vector<H> pts(points.size());
+  for (size_t k = 0; k < points.size(); ++k) {
+    const double w = weights.empty() ? 1.0 : weights[k];
+    pts[k] = {w * points[k].x, w * points[k].y, w * points[k].z, w};
+  }
+  for (size_t r = 1; r < pts.size(); ++r) {
+    for (size_t k = 0; k + r < pts.size(); ++k) {
+      for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
+    }
+  }
+  return project(pts[0]);
+}
+
+SurfacePointEval evaluate_with_derivatives(const BezierPatch& patch, double u, double v) {
+  const int n = patch.degree_u, m = patch.degree_v;
+  std::vector<H> along_v(static_cast<size_t>(m + 1));
+  std::vector<H> rows(static_cast<size_t>(n + 1)), drows(static_cast<size_t>(n + 1));
+  for (int i = 0; i <= n; ++i) {
+    for (int j = 0; j <= m; ++j) {
+      const double w = patch.weight(i, j);
+      const Vec3& p = patch.at(i, j);
+      along_v[static_cast<size_t>(j)] = {w * p.x, w * p.y, w * p.z, w};
+    }
+    curve_with_derivative(along_v, v, rows[static_cast<size_t>(i)], drows[static_cast<size_t>(i)]);
+  }
+  H h, hu, hv, unused;
+  std::vector<H> work = rows;
+  curve_with_derivative(work, u, h, hu);
+  work = drows;
+  curve_with_derivative(work, u, hv, unused);
+  SurfacePointEval e;
+  e.position = project(h);
+  e.du = project_derivative(h, hu);
+  e.dv = project_derivative(h, hv);
+  return e;
+}
+
+Vec3 surface_normal(const BezierPatch& patch, double u, double v) {
+  const double scale = control_box(patch).diagonal();
+  const double tiny = 1e-24 * scale * scale;
+  // Step towards the patch centre until the tangent plane is defined; the first step is so small
+  // that the result is the limit normal to within the step size.
+  double step = 0.0;
+  for (int attempt = 0; attempt < 8; ++attempt) {
+    const double uu = u + step * (0.5 - u), vv = v + step * (0.5 - v);
+    const SurfacePointEval e = evaluate_with_derivatives(patch, uu, vv);
+    const Vec3 n = glm::cross(e.du, e.dv);
+    const double len2 = glm::dot(n, n);
+    if (len2 > tiny && std::isfinite(len2)) return n / std::sqrt(len2);
+    step = step == 0.0 ? 1e-9 : step * 10.0;
+  }
+  return Vec3(0.0, 0.0, 1.0);
+}
+
+PatchEvaluator::PatchEvaluator(const BezierPatch& patch)
+    : n_(patch.degree_u),
+      m_(patch.degree_v),
+      power_(patch.degree_u <= kMatrixFormMaxDegree && patch.degree_v <= kMatrixFormMaxDegree),
+      origin_(control_box(patch).center()),
+      k_(static_cast<size_t>((n_ + 1) * (m_ + 1)), H{0.0, 0.0, 0.0, 0.0}) {
+  const int cols = m_ + 1;
+  std::vector<H> b(k_.size());
+  for (int i = 0; i <= n_; ++i) {
+    for (int j = 0; j <= m_; ++j) {
+      const double w = patch.weight(i, j);
+      const Vec3 p = patch.at(i, j) - origin_;
+      b[static_cast<size_t>(i * cols + j)] = {w * p.x, w * p.y, w * p.z, w};
+    }
+  }
+  if (!power_) {
+    k_ = b;
+    return;
+  }
+  // K = N B M^T with N_ki = C(n,k) C(k,i) (-1)^(k-i): the power-basis coefficient of u^k in B_i^n.
+  auto coeff = [](int deg, int i, int k) {
+    if (k < i) return 0.0;
+    const double s = ((k - i) % 2) ? -1.0 : 1.0;
+    return s * binomial(deg, k) * binomial(k, i);
+  };
+  std::vector<H> nb(k_.size(), H{0.0, 0.0, 0.0, 0.0});
+  for (int k = 0; k <= n_; ++k) {
+    for (int i = 0; i <= k; ++i) {
+      const double c = coeff(n_, i, k);
+      for (int j = 0; j <= m_; ++j) {
+        for (int q = 0; q < 4; ++q) nb[k * cols + j][q] += c * b[i * cols + j][q];
+      }
+    }
+  }
+  for (int k = 0; k <= n_; ++k) {
+    for (int l = 0; l <= m_; ++l) {
+      for (int j = 0; j <= l; ++j) {
+        const double c = coeff(m_, j, l);
+        for (int q = 0; q < 4; ++q) k_[k * cols + l][q] += c * nb[k * cols + j][q];
+      }
+    }
+  }
+}
+
+void PatchEvaluator::basis_row(int degree, double t, double* values, double* derivatives) const {
+  if (power_) {
+    double p = 1.0;
+    for (int k = 0; k <= degree; ++k) {
+      values[k] = p;
+      derivatives[k] = k == 0 ? 0.0 : k * values[k - 1];
+      p *= t;
+    }
+    return;
+  }
+  // Bernstein values by the stable triangle; derivatives from the degree - 1 values.
+  for (int k = 0; k <= degree; ++k) values[k] = 0.0;
+  values[0] = 1.0;
+  for (int r = 1; r <= degree; ++r) {
+    if (r == degree) {
+      derivatives[0] = -degree * values[0];
+      for (int k = 1; k < degree; ++k) derivatives[k] = degree * (values[k - 1] - values[k]);
+      derivatives[degree] = degree * values[degree - 1];
+    }
+    for (int k = r; k >= 1; --k) values[k] = t * values[k - 1] + (1.0 - t) * values[k];
+    values[0] *= (1.0 - t);
+  }
+}
+
+void PatchEvaluator::contract_u(const double* a, const double* da, H* row, H* drow) const {
+  const int cols = m_ + 1;
+  for (int j = 0; j <= m_; ++j) {
+    H r{0.0, 0.0, 0.0, 0.0}, dr{0.0, 0.0, 0.0, 0.0};
+    for (int i = 0; i <= n_; ++i) {
+      const H& kij = k_[static_cast<size_t>(i * cols + j)];
+      for (int q = 0; q < 4; ++q) {
+        r[q] += a[i] * kij[q];
+        dr[q] += da[i] * kij[q];
+      }
+    }
+    row[j] = r;
+    drow[j] = dr;
+  }
+}
+
+SurfacePointEval PatchEvaluator::finish(const H* row, const H* drow, const double* b, const double* db) const {
+  H h{0.0, 0.0, 0.0, 0.0}, hu{0.0, 0.0, 0.0, 0.0}, hv{0.0, 0.0, 0.0, 0.0};
+  for (int j = 0; j <= m_; ++j) {
+    for (int q = 0; q < 4; ++q) {
+      h[q] += b[j] * row[j][q];
+      hu[q] += b[j] * drow[j][q];
+      hv[q] += db[j] * row[j][q];
+    }
+  }
+  SurfacePointEval e;
+  const Vec3 rel = project(h);
+  e.position = origin_ + rel;
+  e.du = project_derivative(h, hu);
+  e.dv = project_derivative(h, hv);
+  return e;
+}
+
+SurfacePointEval PatchEvaluator::evaluate(double u, double v) const {
+  double a[kMaxDegree + 1], da[kMaxDegree + 1], b[kMaxDegree + 1], db[kMaxDegree + 1];
+  H row[kMaxDegree + 1], drow[kMaxDegree + 1];
+  basis_row(n_, u, a, da);
+  basis_row(m_, v, b, db);
+  contract_u(a, da, row, drow);
+  return finish(row, drow, b, db);
+}
+
+}  // namespace sagitta

@@ -1,0 +1,48 @@
+// The `sagitta` command line: one register function per subcommand, and the helpers they share.
+#pragma once
+
+#include "sagitta/model.hpp"
+#include "sagitta/tessellation.hpp"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <functional>
+#include <string>
+
+namespace sagitta::cli {
+
+// A subcommand and the action to run when it was given on the command line.
+struct Command {
+  CLI::App* app = nullptr;
+  std::function<void()> run;
+};
+
+Command register_tessellate(CLI::App& app);
+Command register_run(CLI::App& app);
+
+// Loads a patch model: "" or "default" is the built-in default model; otherwise by extension.
+Model load_model(const std::string& input);
+
+// Refuses to write an output onto one of the inputs.
+void check_output_is_not_input(const std::string& output, const std::string& input);
+
+// Writes a JSON document atomically, pretty-printed.
+void write_json(const std::string& path, const nlohmann::json& doc);
+
+// Topology summary for stats files.
+nlohmann::json topology_json(const Model& model, const Topology& topology);
+
+class Stopwatch {
+ public:
+  Stopwatch() : start_(std::chrono::steady_clock::now()) {}
+  double seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace sagitta::cli

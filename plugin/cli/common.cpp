@@ -1,0 +1,47 @@
+#include "commands.hpp"
+
+#include "sagitta/fixtures.hpp"
+#include "sagitta/io/mesh_io.hpp"
+#include "sagitta/io/model_io.hpp"
+
+#include <filesystem>
+
+namespace sagitta::cli {
+
+Model load_model(const std::string& input) {
+  if (input.empty() || input == "default") return fixtures::default_model();
+  if (!std::filesystem::exists(input)) throw InputError(input + ": no such file");
+  return io::read_patch_model(input);
+}
+
+void check_output_is_not_input(const std::string& output, const std::string& input) {
+  std::error_code ec;
+  if (!output.empty() && !input.empty() && std::filesystem::exists(output, ec) &&
+      std::filesystem::equivalent(output, input, ec)) {
+    throw InputError(output + ": refusing to overwrite the input file");
+  }
+}
+
+void write_json(const std::string& path, const nlohmann::json& doc) { io::write_file_atomic(path, doc.dump(2) + "\n"); }
+
+nlohmann::json topology_json(const Model& model, const Topology& topo) {
+  nlohmann::json j;
+  j["shared_edges"] = topo.shared_edges();
+  j["free_boundary_edges"] = topo.free_edges();
+  j["nonmanifold_edges"] = topo.nonmanifold_edges();
+  j["collapsed_sides"] = topo.collapsed_sides();
+  j["corners"] = topo.corner_classes;
+  nlohmann::json misses = nlohmann::json::array();
+  for (const Topology::NearMiss& m : topo.near_misses) {
+    misses.push_back({{"patch_a", m.a.patch}, {"side_a", side_name(m.a.side)}, {"patch_b", m.b.patch},
+                      {"side_b", side_name(m.b.side)}, {"distance", m.distance}});
+  }
+  j["near_misses"] = misses;
+  nlohmann::json near = nlohmann::json::array();
+  for (const SideRef& s : topo.near_collapsed) near.push_back({{"patch", s.patch}, {"side", side_name(s.side)}});
+  j["near_collapsed_sides"] = near;
+  (void)model;
+  return j;
+}
+
+}  // namespace sagitta::cli

@@ -1,0 +1,35 @@
+// sagitta: certified tessellation of Bézier surfaces.
+#include "commands.hpp"
+
+#include <tbb/global_control.h>
+
+#include <iostream>
+#include <memory>
+#include <vector>
+
+int main(int argc, char** argv) {
+  CLI::App app{"sagitta: tessellate Bézier surfaces and certify how far the mesh is from the exact surface"};
+  app.require_subcommand(1);
+  int threads = 0;
+  app.add_option("--threads", threads, "Worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  const std::vector<sagitta::cli::Command> commands = {
+      sagitta::cli::register_run(app),
+      sagitta::cli::register_tessellate(app),
+  };
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  std::unique_ptr<tbb::global_control> limit;
+  if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
+  try {
+    for (const auto& command : commands) {
+      if (command.app->parsed()) command.run();
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "sagitta: " << e.what() << "\n";
+    return 2;
+  }
+  return 0;
+}

@@ -1,0 +1,31 @@
+// Scheme selection shared by every subcommand that tessellates (tessellate, validate, fit, bench).
+#pragma once
+
+#include "sagitta/model.hpp"
+#include "sagitta/tessellation.hpp"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <string>
+
+namespace sagitta::cli {
+
+struct SchemeOptions {
+  std::string scheme = "uniform";
+  int level = -1;       // uniform: 2^L segments; esc: pattern level; pn: segments per edge
+  int segments = -1;    // uniform: N segments per side
+  double threshold = 0.0;  // esc: distance threshold rho
+  uint64_t max_triangles = 200'000'000;
+  bool surface_data = true;  // keep (patch, u, v) so the result can be validated
+};
+
+// Adds --scheme, --level, --segments, --threshold and --max-triangles to a subcommand.
+void add_scheme_options(CLI::App* command, SchemeOptions& options);
+
+// Runs the chosen scheme; fills `stats` with the scheme's parameters and counts (not timing).
+// Refuses, with a message, a tessellation whose estimated size exceeds max_triangles.
+Tessellation run_scheme(const Model& model, const Topology& topology, const SchemeOptions& options, nlohmann::json& stats);
+
+}  // namespace sagitta::cli

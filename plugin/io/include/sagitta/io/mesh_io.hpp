@@ -1,0 +1,32 @@
+// Mesh files: OBJ, binary PLY and binary STL. Writers are atomic: they write a temporary file in
+// the target's folder and rename it over the target only when everything was written.
+#pragma once
+
+#include "sagitta/tessellation.hpp"
+
+#include <string>
+#include <vector>
+
+namespace sagitta::io {
+
+struct MeshWriteOptions {
+  bool normals = true;                   // OBJ "vn", PLY nx ny nz (STL always has facet normals)
+  const std::vector<float>* face_error = nullptr;  // PLY: per-face "error" property
+};
+
+void write_obj(const Tessellation& mesh, const std::string& path, const MeshWriteOptions& options = {});
+void write_ply(const Tessellation& mesh, const std::string& path, const MeshWriteOptions& options = {});
+void write_stl(const Tessellation& mesh, const std::string& path, const MeshWriteOptions& options = {});
+// By extension: .obj, .ply, .stl.
+void write_mesh(const Tessellation& mesh, const std::string& path, const MeshWriteOptions& options = {});
+
+// Reads a triangle mesh (polygons are fan-triangulated; OBJ "vn" kept when every corner has one and
+// each vertex has a single normal, PLY nx/ny/nz kept). Positions, normals, triangles only.
+Tessellation read_mesh(const std::string& path);
+// The same from bytes already in memory; `ext` is ".obj", ".ply" or ".stl" (used by the fuzzers).
+Tessellation parse_mesh(const std::string& bytes, const std::string& name, const std::string& ext);
+
+// Writes `bytes` to `path` atomically (temp file + rename). Throws InputError on failure.
+void write_file_atomic(const std::string& path, const std::string& bytes);
+
+}  // namespace sagitta::io

@@ -1,0 +1,29 @@
+// Readers for patch files. Every reader throws sagitta::InputError with one line
+// "FILE:LINE: problem" for malformed input; none modifies its input.
+#pragma once
+
+#include "sagitta/model.hpp"
+
+#include <string>
+
+namespace sagitta::io {
+
+// .bpt: first line the patch count; per patch a line "n m" (degrees 1..25), then (n+1)(m+1)
+// lines "x y z" (or "x y z w" for a rational patch, all points of the patch alike), row-major.
+Model read_bpt(const std::string& path);
+Model parse_bpt(const std::string& text, const std::string& name);
+
+// RenderMan RIB: Patch "bicubic" / "bilinear" with "P" (or homogeneous "Pw"), under Basis "bezier"
+// (the default), with TransformBegin/End, AttributeBegin/End, Identity, Translate, Rotate, Scale
+// and ConcatTransform. Other requests are skipped; unsupported geometry is reported.
+Model read_rib(const std::string& path);
+Model parse_rib(const std::string& text, const std::string& name);
+
+// Chooses the reader by extension (.bpt, .rib). CAD files (.step, .iges, .brep) go through the
+// OCCT adapter instead.
+Model read_patch_model(const std::string& path);
+
+// Reads a whole file; throws InputError naming it when it cannot be read.
+std::string read_text_file(const std::string& path);
+
+}  // namespace sagitta::io

@@ -1,0 +1,153 @@
+#include "sagitta/io/mesh_io.hpp"
+
+#include "sagitta/io/model_io.hpp"
+
+#include <glm/geometric.hpp>
+
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <unistd.h>
+
+namespace sagitta::io {
+
+namespace fs = std::filesystem;
+
+void write_file_atomic(const std::string& path, const std::string& bytes) {
+  const fs::path target(path);
+  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  std::string tmpl = (dir / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
+  const int fd = mkstemp(tmpl.data());
+  if (fd < 0) throw InputError(path + ": cannot create a temporary file in " + dir.string() + ": " + std::strerror(errno));
+  size_t written = 0;
+  while (written < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
+    if (n <= 0) {
+      const std::string why = std::strerror(errno);
+      ::close(fd);
+      ::unlink(tmpl.c_str());
+      throw InputError(path + ": write failed: " + why);
+    }
+    written += static_cast<size_t>(n);
+  }
+  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+    ::unlink(tmpl.c_str());
+    throw InputError(path + ": write failed: " + std::strerror(errno));
+  }
+  if (std::rename(tmpl.c_str(), path.c_str()) != 0) {
+    const std::string why = std::strerror(errno);
+    ::unlink(tmpl.c_str());
+    throw InputError(path + ": cannot rename the temporary file into place: " + why);
+  }
+}
+
+namespace {
+
+template <class T>
+void put(std::string& out, T value) {
+  char b[sizeof(T)];
+  std::memcpy(b, &value, sizeof(T));
+  out.append(b, sizeof(T));
+}
+
+bool ends_with_ci(const std::string& path, const std::string& ext) {
+  if (path.size() < ext.size()) return false;
+  for (size_t k = 0; k < ext.size(); ++k) {
+    if (std::tolower(static_cast<unsigned char>(path[path.size() - ext.size() + k])) != ext[k]) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+void write_obj(const Tessellation& mesh, const std::string& path, const MeshWriteOptions& options) {
+  std::string out;
+  out.reserve(mesh.positions.size() * 80 + mesh.triangles.size() * 40);
+  out += "# sagitta tessellation: " + std::to_string(mesh.positions.size()) + " vertices, " +
+         std::to_string(mesh.triangles.size()) + " triangles\n";
+  char line[160];
+  for (const Vec3& p : mesh.positions) {
+    out.append(line, static_cast<size_t>(std::snprintf(line, sizeof line, "v %.17g %.17g %.17g\n", p.x, p.y, p.z)));
+  }
+  const bool normals = options.normals && mesh.normals.size() == mesh.positions.size();
+  if (normals) {
+    for (const Vec3& n : mesh.normals) {
+      out.append(line, static_cast<size_t>(std::snprintf(line, sizeof line, "vn %.9g %.9g %.9g\n", n.x, n.y, n.z)));
+    }
+  }
+  for (const Triangle& t : mesh.triangles) {
+    const int len = normals ? std::snprintf(line, sizeof line, "f %u//%u %u//%u %u//%u\n", t[0] + 1, t[0] + 1, t[1] + 1,
+                                            t[1] + 1, t[2] + 1, t[2] + 1)
+                            : std::snprintf(line, sizeof line, "f %u %u %u\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    out.append(line, static_cast<size_t>(len));
+  }
+  write_file_atomic(path, out);
+}
+
+void write_ply(const Tessellation& mesh, const std::string& path, const MeshWriteOptions& options) {
+  const bool normals = options.normals && mesh.normals.size() == mesh.positions.size();
+  const bool error = options.face_error && options.face_error->size() == mesh.triangles.size();
+  const bool patch = mesh.triangle_patch.size() == mesh.triangles.size();
+  std::string out = "ply\nformat binary_little_endian 1.0\ncomment sagitta tessellation\n";
+  out += "element vertex " + std::to_string(mesh.positions.size()) + "\n";
+  out += "property double x\nproperty double y\nproperty double z\n";
+  if (normals) out += "property float nx\nproperty float ny\nproperty float nz\n";
+  out += "element face " + std::to_string(mesh.triangles.size()) + "\n";
+  out += "property list uchar uint vertex_indices\n";
+  if (patch) out += "property uint patch\n";
+  if (error) out += "property float error\n";
+  out += "end_header\n";
+  out.reserve(out.size() + mesh.positions.size() * 36 + mesh.triangles.size() * 21);
+  for (size_t k = 0; k < mesh.positions.size(); ++k) {
+    const Vec3& p = mesh.positions[k];
+    put(out, p.x);
+    put(out, p.y);
+    put(out, p.z);
+    if (normals) {
+      put(out, static_cast<float>(mesh.normals[k].x));
+      put(out, static_cast<float>(mesh.normals[k].y));
+      put(out, static_cast<float>(mesh.normals[k].z));
+    }
+  }
+  for (size_t k = 0; k < mesh.triangles.size(); ++k) {
+    put(out, static_cast<uint8_t>(3));
+    for (uint32_t v : mesh.triangles[k]) put(out, v);
+    if (patch) put(out, mesh.triangle_patch[k]);
+    if (error) put(out, (*options.face_error)[k]);
+  }
+  write_file_atomic(path, out);
+}
+
+void write_stl(const Tessellation& mesh, const std::string& path, const MeshWriteOptions&) {
+  std::string out(80, ' ');
+  std::memcpy(out.data(), "sagitta binary STL", 18);
+  put(out, static_cast<uint32_t>(mesh.triangles.size()));
+  out.reserve(out.size() + mesh.triangles.size() * 50);
+  for (const Triangle& t : mesh.triangles) {
+    const Vec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+    Vec3 n = glm::cross(b - a, c - a);
+    const double len = glm::length(n);
+    n = len > 0.0 ? n / len : Vec3(0.0);
+    for (const Vec3& q : {n, a, b, c}) {
+      put(out, static_cast<float>(q.x));
+      put(out, static_cast<float>(q.y));
+      put(out, static_cast<float>(q.z));
+    }
+    put(out, static_cast<uint16_t>(0));
+  }
+  write_file_atomic(path, out);
+}
+
+void write_mesh(const Tessellation& mesh, const std::string& path, const MeshWriteOptions& options) {
+  if (ends_with_ci(path, ".obj")) return write_obj(mesh, path, options);
+  if (ends_with_ci(path, ".ply")) return write_ply(mesh, path, options);
+  if (ends_with_ci(path, ".stl")) return write_stl(mesh, path, options);
+  throw InputError(path + ": unknown mesh type (expected .obj, .ply or .stl)");
+}
+
+}  // namespace sagitta::io
