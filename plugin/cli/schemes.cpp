@@ -7,8 +7,10 @@
 
 namespace sagitta::cli {
 
+std::vector<std::string> scheme_names() { return {"uniform"}; }
+
 void add_scheme_options(CLI::App* command, SchemeOptions& o) {
-  command->add_option("--scheme", o.scheme, "Tessellation scheme")->check(CLI::IsMember({"uniform"}))->capture_default_str();
+  command->add_option("--scheme", o.scheme, "Tessellation scheme")->check(CLI::IsMember(scheme_names()))->capture_default_str();
   command->add_option("--level", o.level,
                       "uniform: 2^L segments per patch side (levels nest), 0.." + std::to_string(kMaxUniformLevel));
   command->add_option("--segments", o.segments, "uniform: N >= 1 segments per patch side (the seed's level l is N = 2^(l+1) - 1)");

@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace sagitta::cli {
 
@@ -20,6 +21,9 @@ struct SchemeOptions {
   uint64_t max_triangles = 200'000'000;
   bool surface_data = true;  // keep (patch, u, v) so the result can be validated
 };
+
+// The schemes --scheme accepts.
+std::vector<std::string> scheme_names();
 
 // Adds --scheme, --level, --segments, --threshold and --max-triangles to a subcommand.
 void add_scheme_options(CLI::App* command, SchemeOptions& options);
