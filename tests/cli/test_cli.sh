@@ -1,1 +1,37 @@
-echo ok
+#!/usr/bin/env bash
+# End-to-end checks of the sagitta command: the issue's acceptance commands and error messages.
+set -u
+fail=0; passed=0
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+check() { if eval "$2"; then passed=$((passed+1)); else echo "FAIL: $1"; fail=$((fail+1)); fi; }
+json() { python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))" "$@"; }
+
+# Main job on the built-in default model.
+check "run on the default model" "$SAGITTA run --out-dir $tmp/run >$tmp/run.log 2>&1 && test -s $tmp/run/uniform.ply && test -s $tmp/run/report.json"
+
+if [ -f "$SHARED_DATA/teapot.bpt" ]; then
+  check "teapot level 3" "$SAGITTA tessellate $SHARED_DATA/teapot.bpt --scheme uniform --level 3 --out $tmp/t.obj --stats $tmp/t.json >/dev/null"
+  check "teapot triangles + degenerate = 4096" "[ \$(json $tmp/t.json 'd[\"triangles\"]+d[\"degenerate_triangles\"]') = 4096 ]"
+  check "stats keys" "[ \$(json $tmp/t.json 'all(k in d for k in [\"scheme\",\"patches\",\"vertices\",\"triangles\",\"degenerate_triangles\",\"seconds\"])') = True ]"
+  check "obj written" "grep -c '^f ' $tmp/t.obj | grep -qx 4032"
+  check "100 teacups copies" "$SAGITTA tessellate $SHARED_DATA/teacup.bpt --copies 100 --segments 15 --stats $tmp/c.json >/dev/null && [ \$(json $tmp/c.json 'd[\"patches\"]') = 2600 ]"
+  cp "$SHARED_DATA/teapot.bpt" "$tmp/in.bpt"
+  check "refuses to overwrite its input" "! $SAGITTA tessellate $tmp/in.bpt --level 1 --out $tmp/in.bpt 2>$tmp/err && grep -q 'refusing to overwrite the input' $tmp/err && cmp -s $tmp/in.bpt $SHARED_DATA/teapot.bpt"
+else
+  echo "SKIP: shared data absent ($SHARED_DATA)"
+fi
+
+# Bad input: one line naming the file and the problem, exit code 2.
+printf '1\n3 3\n0 0 0\n' > "$tmp/trunc.bpt"
+$SAGITTA tessellate "$tmp/trunc.bpt" --level 1 2>"$tmp/err"; rc=$?
+check "truncated file exit code" "[ $rc = 2 ]"
+check "truncated file message" "grep -q \"trunc.bpt:3: file ends early: expected control point 1 of patch 0 of 1\" $tmp/err && [ \$(wc -l < $tmp/err) = 1 ]"
+check "missing file" "! $SAGITTA tessellate $tmp/nope.bpt --level 1 2>$tmp/err && grep -q 'nope.bpt: no such file' $tmp/err"
+check "level too large" "! $SAGITTA tessellate --level 13 2>$tmp/err && grep -q 'outside 0..12' $tmp/err"
+check "max triangles" "! $SAGITTA tessellate --level 9 --max-triangles 1000 2>$tmp/err && grep -q 'more than --max-triangles 1000' $tmp/err"
+check "level and segments exclusive" "! $SAGITTA tessellate --level 2 --segments 3 2>$tmp/err && grep -q 'exactly one of' $tmp/err"
+check "help explains options" "$SAGITTA tessellate --help | grep -q -- '--copies'"
+check "unknown output type" "! $SAGITTA tessellate --level 1 --out $tmp/x.xyz 2>$tmp/err && grep -q 'unknown mesh type' $tmp/err"
+
+echo "cli: $passed passed, $fail failed"
+[ "$fail" = 0 ]

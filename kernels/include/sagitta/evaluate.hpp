@@ -35,7 +35,7 @@ Vec3 surface_normal(const BezierPatch& patch, double u, double v);
 // a patch-local origin (the control box centre), so coordinates far from the origin keep their
 // digits. Above kMatrixFormMaxDegree the power basis loses too many digits; there the same
 // precomputed layout holds the Bernstein form instead (basis rows from the stable recurrence).
-inline constexpr int kMatrixFormMaxDegree = 10;
+inline constexpr int kMatrixFormMaxDegree = 7;
 
 class PatchEvaluator {
  public:

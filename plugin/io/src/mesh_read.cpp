@@ -59,12 +59,9 @@ void add_polygon(Tessellation& mesh, const std::vector<uint32_t>& poly) {
 
 Tessellation parse_obj(const std::string& text, const std::string& name) {
   std::vector<Vec3> positions, normals;
-  // Output vertex per distinct (position index, normal index) pair; -1 when the corner has no normal.
-  std::map<std::pair<long, long>, uint32_t> vertex_of;
-  Tessellation mesh;
-  bool any_without_normal = false;
+  std::vector<std::pair<long, long>> corners;  // (position index, normal index or -1), 0-based
+  std::vector<size_t> face_sizes;
   size_t line_no = 0, pos = 0;
-  std::vector<uint32_t> poly;
   while (pos < text.size()) {
     const size_t end = text.find('\n', pos);
     std::string line = text.substr(pos, end == std::string::npos ? std::string::npos : end - pos);
@@ -82,7 +79,7 @@ Tessellation parse_obj(const std::string& text, const std::string& name) {
       }
       (tag == "v" ? positions : normals).emplace_back(c[0], c[1], c[2]);
     } else if (tag == "f") {
-      poly.clear();
+      size_t count = 0;
       std::string corner;
       while (s >> corner) {
         const size_t s1 = corner.find('/');
@@ -100,21 +97,53 @@ Tessellation parse_obj(const std::string& text, const std::string& name) {
         }
         if (ni < 0) ni += nn + 1;
         if (ni != 0 && (ni < 1 || ni > nn)) fail(name, line_no, "normal index in '" + corner + "' is out of range");
-        if (ni == 0) any_without_normal = true;
-        const auto key = std::make_pair(vi - 1, ni - 1);
-        auto [it, inserted] = vertex_of.emplace(key, static_cast<uint32_t>(mesh.positions.size()));
-        if (inserted) {
-          mesh.positions.push_back(positions[static_cast<size_t>(vi - 1)]);
-          mesh.normals.push_back(ni ? normals[static_cast<size_t>(ni - 1)] : Vec3(0.0));
-        }
-        poly.push_back(it->second);
+        corners.emplace_back(vi - 1, ni - 1);
+        ++count;
       }
-      if (poly.size() < 3) fail(name, line_no, "a face needs at least 3 vertices");
-      add_polygon(mesh, poly);
+      if (count < 3) fail(name, line_no, "a face needs at least 3 vertices");
+      face_sizes.push_back(count);
     }
   }
   if (positions.empty()) fail(name, 0, "the mesh has no vertices");
-  if (any_without_normal) mesh.normals.clear();
+  // Keep the file's vertex numbering when every corner has a normal and each position has one
+  // normal (or when no corner has one); split a position per distinct normal otherwise (creases).
+  std::vector<long> normal_of(positions.size(), -2);
+  bool consistent = true, all_normals = true, any_normal = false;
+  for (const auto& [v, n] : corners) {
+    all_normals &= n >= 0;
+    any_normal |= n >= 0;
+    if (normal_of[static_cast<size_t>(v)] == -2) normal_of[static_cast<size_t>(v)] = n;
+    consistent &= normal_of[static_cast<size_t>(v)] == n;
+  }
+  Tessellation mesh;
+  std::vector<uint32_t> ids;
+  ids.reserve(corners.size());
+  if (consistent && (all_normals || !any_normal)) {
+    mesh.positions = positions;
+    if (all_normals) {
+      mesh.normals.assign(positions.size(), Vec3(0.0));
+      for (const auto& [v, n] : corners) mesh.normals[static_cast<size_t>(v)] = normals[static_cast<size_t>(n)];
+    }
+    for (const auto& c : corners) ids.push_back(static_cast<uint32_t>(c.first));
+  } else {
+    std::map<std::pair<long, long>, uint32_t> vertex_of;
+    for (const auto& c : corners) {
+      auto [it, inserted] = vertex_of.emplace(c, static_cast<uint32_t>(mesh.positions.size()));
+      if (inserted) {
+        mesh.positions.push_back(positions[static_cast<size_t>(c.first)]);
+        mesh.normals.push_back(c.second >= 0 ? normals[static_cast<size_t>(c.second)] : Vec3(0.0));
+      }
+      ids.push_back(it->second);
+    }
+    if (!all_normals) mesh.normals.clear();
+  }
+  size_t at = 0;
+  std::vector<uint32_t> poly;
+  for (size_t size : face_sizes) {
+    poly.assign(ids.begin() + static_cast<long>(at), ids.begin() + static_cast<long>(at + size));
+    add_polygon(mesh, poly);
+    at += size;
+  }
   require_faces(mesh, name);
   return mesh;
 }
