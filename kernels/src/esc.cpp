@@ -1,0 +1,428 @@
+#include "sagitta/esc.hpp"
+
+#include "sagitta/boundary.hpp"
+#include "sagitta/evaluate.hpp"
+
+#include <glm/geometric.hpp>
+#include <tbb/parallel_for.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace sagitta {
+
+namespace {
+
+// Every pattern vertex of a patch of degree (n, m) at level L lies on the fine lattice
+// (a, b), a = 0..n(L+1), b = 0..m(L+1), at (u, v) = (a / (n(L+1)), b / (m(L+1))).
+struct Lattice {
+  int P = 1;  // segments per coarse edge, L + 1
+  int n = 1, m = 1;
+  int cols = 2;
+  int index(int a, int b) const { return a * cols + b; }
+  double u(int a) const { return static_cast<double>(a) / static_cast<double>(n * P); }
+  double v(int b) const { return static_cast<double>(b) / static_cast<double>(m * P); }
+};
+
+// Lattice point of position c (0..k) in row k (0..P) of coarse triangle `tri` of cell (i, j).
+// Row 0 is the apex (the cell corner at the right angle), row P the base (the cell diagonal from
+// (i, j) to (i + 1, j + 1)); c = 0 lies on the "left" grid edge and c = k on the "right" one. The
+// order makes (row k+1 c, row k c, row k+1 c+1) counter-clockwise in (u, v).
+inline void row_point(int P, int tri, int i, int j, int k, int c, int& a, int& b) {
+  if (tri == 0) {  // triangle (i,j) (i+1,j) (i+1,j+1): apex (i+1, j), left edge v = j, right edge u = i+1
+    a = i * P + P - k + c;
+    b = j * P + c;
+  } else {  // triangle (i,j) (i+1,j+1) (i,j+1): apex (i, j+1), left edge v = j+1, right edge u = i
+    a = i * P + k - c;
+    b = j * P + P - c;
+  }
+}
+
+// The distance test of the seed: insert when the control-net point is farther than rho from the
+// surface point; rho == 0 inserts every candidate (the non-adaptive pattern).
+inline bool passes(const Vec3& net, const Vec3& surface, double rho) {
+  return rho <= 0.0 || glm::length(net - surface) > rho;
+}
+
+struct Node {
+  uint32_t id;
+  int a, b;    // lattice point (a VV keeps its own lattice point, in another row)
+  double pos;  // normalised position along its row, 0..1
+};
+
+// Twice the signed area of (p, q, r) in lattice units; > 0 is counter-clockwise in (u, v).
+inline long orient(const Node& p, const Node& q, const Node& r) {
+  return static_cast<long>(q.a - p.a) * (r.b - p.b) - static_cast<long>(q.b - p.b) * (r.a - p.a);
+}
+
+struct PatchOutput {
+  std::vector<Triangle> triangles;
+  std::vector<std::array<Vec2, 3>> uv;
+  std::vector<std::vector<uint32_t>> strips;
+  uint64_t degenerate = 0;
+};
+
+}  // namespace
+
+uint64_t esc_full_triangle_count(const Model& model, int level) {
+  const uint64_t p = static_cast<uint64_t>(level + 1);
+  uint64_t total = 0;
+  for (const BezierPatch& patch : model.patches) {
+    total += 2ull * static_cast<uint64_t>(patch.degree_u) * static_cast<uint64_t>(patch.degree_v) * p * p;
+  }
+  return total;
+}
+
+Tessellation tessellate_esc(const Model& model, const Topology& topology, const EscParams& params, EscStats* stats) {
+  if (params.level < 0 || params.level > kMaxEscLevel) {
+    throw InputError("esc --level " + std::to_string(params.level) + " is outside 0.." + std::to_string(kMaxEscLevel) +
+                     " (level L puts L + 1 segments on every coarse edge)");
+  }
+  if (!std::isfinite(params.threshold) || params.threshold < 0.0) {
+    throw InputError("esc --threshold must be a finite distance >= 0 (0 inserts every candidate), got " +
+                     std::to_string(params.threshold));
+  }
+  const int P = params.level + 1;
+  const double rho = params.threshold;
+  const size_t np = model.patches.size();
+  if (topology.sides.size() != np * 4) throw InputError("internal: the topology does not belong to this model");
+
+  // 1. Patch sides: one decision per sample of each unique boundary curve, from that curve alone in
+  // its canonical direction; the surface point is computed exactly as fill_boundary computes the
+  // vertex, and the net point is the canonical control polygon interpolated linearly.
+  const BoundaryLayout layout = layout_boundary(
+      topology, [&](size_t e) { return static_cast<int>(topology.edges[e].points.size() - 1) * P; }, 0);
+  std::vector<uint64_t> edge_offset(topology.edges.size() + 1, 0);
+  for (size_t e = 0; e < topology.edges.size(); ++e) {
+    edge_offset[e + 1] = edge_offset[e] + static_cast<uint64_t>(layout.edge_segments[e]) + 1;
+  }
+  std::vector<uint8_t> edge_insert(edge_offset.back(), 1);
+  tbb::parallel_for(size_t{0}, topology.edges.size(), [&](size_t e) {
+    const Topology::Edge& edge = topology.edges[e];
+    const int n = layout.edge_segments[e];
+    for (int k = 1; k < n; ++k) {
+      if (k % P == 0) continue;
+      const int seg = k / P;
+      const double t = static_cast<double>(k % P) / P;
+      const Vec3 net = edge.points[static_cast<size_t>(seg)] +
+                       t * (edge.points[static_cast<size_t>(seg + 1)] - edge.points[static_cast<size_t>(seg)]);
+      const Vec3 surface = de_casteljau_curve(edge.points, edge.weights, static_cast<double>(k) / n);
+      edge_insert[edge_offset[e] + static_cast<uint64_t>(k)] = passes(net, surface, rho) ? 1 : 0;
+    }
+  });
+
+  // 2. Per patch: the insertion mask on its lattice (coarse-edge tests, then rows), and the number
+  // of inserted vertices strictly inside the patch.
+  std::vector<Lattice> lattices(np);
+  std::vector<std::vector<uint8_t>> masks(np);
+  std::vector<uint64_t> interior_count(np, 0), patch_candidates(np, 0), patch_inserted(np, 0);
+  tbb::parallel_for(size_t{0}, np, [&](size_t p) {
+    const BezierPatch& patch = model.patches[p];
+    const uint32_t pid = static_cast<uint32_t>(p);
+    Lattice& lat = lattices[p];
+    lat.P = P;
+    lat.n = patch.degree_u;
+    lat.m = patch.degree_v;
+    lat.cols = lat.m * P + 1;
+    const int na = lat.n * P, mb = lat.m * P;
+    std::vector<uint8_t>& mask = masks[p];
+    mask.assign(static_cast<size_t>((na + 1) * (mb + 1)), 0);
+
+    for (Side side : kAllSides) {
+      const Topology::SideInfo& info = topology.side(pid, side);
+      const bool along_v = side == Side::kU0 || side == Side::kU1;
+      const int count = (along_v ? lat.m : lat.n) * P;
+      for (int k = 0; k <= count; ++k) {
+        const int a = side == Side::kU0 ? 0 : side == Side::kU1 ? na : k;
+        const int b = side == Side::kV0 ? 0 : side == Side::kV1 ? mb : k;
+        bool ins = true;
+        if (k % P != 0) {
+          if (info.collapsed) {
+            ins = rho <= 0.0;  // net point and surface point are the collapse point: distance 0
+          } else {
+            const int canonical = info.reversed ? count - k : k;
+            ins = edge_insert[edge_offset[static_cast<size_t>(info.edge)] + static_cast<uint64_t>(canonical)] != 0;
+          }
+        }
+        mask[static_cast<size_t>(lat.index(a, b))] = ins ? 1 : 0;
+      }
+    }
+
+    const PatchEvaluator eval(patch);
+    uint64_t candidates = 0, inserted = 0;
+    for (int a = 1; a < na; ++a) {
+      for (int b = 1; b < mb; ++b) {
+        const int x = a % P, y = b % P, i = a / P, j = b / P;
+        Vec3 net;
+        if (x == 0 && y == 0) {
+          mask[static_cast<size_t>(lat.index(a, b))] = 1;
+          continue;
+        } else if (x == 0) {
+          const double t = static_cast<double>(y) / P;
+          net = patch.at(i, j) + t * (patch.at(i, j + 1) - patch.at(i, j));
+        } else if (y == 0) {
+          const double t = static_cast<double>(x) / P;
+          net = patch.at(i, j) + t * (patch.at(i + 1, j) - patch.at(i, j));
+        } else if (x == y) {
+          const double t = static_cast<double>(x) / P;
+          net = patch.at(i, j) + t * (patch.at(i + 1, j + 1) - patch.at(i, j));
+        } else {
+          continue;  // inside a coarse triangle: decided by its row below
+        }
+        ++candidates;
+        const bool ins = passes(net, eval.position(lat.u(a), lat.v(b)), rho);
+        inserted += ins ? 1 : 0;
+        mask[static_cast<size_t>(lat.index(a, b))] = ins ? 1 : 0;
+      }
+    }
+    // An inserted edge vertex inserts its whole row inside the coarse triangle.
+    for (int i = 0; i < lat.n; ++i) {
+      for (int j = 0; j < lat.m; ++j) {
+        for (int tri = 0; tri < 2; ++tri) {
+          for (int k = 2; k < P; ++k) {
+            int a0, b0, a1, b1;
+            row_point(P, tri, i, j, k, 0, a0, b0);
+            row_point(P, tri, i, j, k, k, a1, b1);
+            const uint8_t present = mask[static_cast<size_t>(lat.index(a0, b0))] | mask[static_cast<size_t>(lat.index(a1, b1))];
+            for (int c = 1; c < k; ++c) {
+              int a, b;
+              row_point(P, tri, i, j, k, c, a, b);
+              mask[static_cast<size_t>(lat.index(a, b))] = present;
+            }
+          }
+        }
+      }
+    }
+    uint64_t interior = 0;
+    for (int a = 1; a < na; ++a) {
+      for (int b = 1; b < mb; ++b) interior += mask[static_cast<size_t>(lat.index(a, b))];
+    }
+    interior_count[p] = interior;
+    patch_candidates[p] = candidates;
+    patch_inserted[p] = inserted;
+  });
+
+  std::vector<uint64_t> interior_base(np + 1, layout.end);
+  for (size_t p = 0; p < np; ++p) interior_base[p + 1] = interior_base[p] + interior_count[p];
+  if (interior_base[np] > UINT32_MAX) throw InputError("the tessellation needs more than 2^32 vertices; lower the level");
+
+  Tessellation full;
+  full.positions.resize(interior_base[np]);
+  if (params.normals) full.normals.resize(full.positions.size());
+  if (params.surface_data) full.surface_points.resize(full.positions.size());
+  fill_boundary(model, topology, layout, full);
+
+  // 3. Per patch: vertex ids, interior evaluation, and the strips of every coarse triangle.
+  std::vector<PatchOutput> outputs(np);
+  tbb::parallel_for(size_t{0}, np, [&](size_t p) {
+    const BezierPatch& patch = model.patches[p];
+    const uint32_t pid = static_cast<uint32_t>(p);
+    const Lattice& lat = lattices[p];
+    const std::vector<uint8_t>& mask = masks[p];
+    const int na = lat.n * P, mb = lat.m * P;
+    std::vector<uint32_t> ids(mask.size(), UINT32_MAX);
+    for (int k = 0; k <= mb; ++k) {
+      ids[static_cast<size_t>(lat.index(0, k))] = side_vertex(layout, topology, pid, Side::kU0, k);
+      ids[static_cast<size_t>(lat.index(na, k))] = side_vertex(layout, topology, pid, Side::kU1, k);
+    }
+    for (int k = 0; k <= na; ++k) {
+      ids[static_cast<size_t>(lat.index(k, 0))] = side_vertex(layout, topology, pid, Side::kV0, k);
+      ids[static_cast<size_t>(lat.index(k, mb))] = side_vertex(layout, topology, pid, Side::kV1, k);
+    }
+    const PatchEvaluator eval(patch);
+    uint64_t next = interior_base[p];
+    for (int a = 1; a < na; ++a) {
+      for (int b = 1; b < mb; ++b) {
+        const size_t s = static_cast<size_t>(lat.index(a, b));
+        if (!mask[s]) continue;
+        const uint32_t id = static_cast<uint32_t>(next++);
+        ids[s] = id;
+        const double u = lat.u(a), v = lat.v(b);
+        const SurfacePointEval e = eval.evaluate(u, v);
+        full.positions[id] = e.position;
+        if (params.normals) {
+          const Vec3 cr = glm::cross(e.du, e.dv);
+          const double len = glm::length(cr);
+          full.normals[id] = (len > 0.0 && std::isfinite(len)) ? cr / len : surface_normal(patch, u, v);
+        }
+        if (params.surface_data) full.surface_points[id] = {pid, u, v};
+      }
+    }
+
+    PatchOutput& out = outputs[p];
+    auto inserted = [&](int a, int b) { return mask[static_cast<size_t>(lat.index(a, b))] != 0; };
+    std::vector<Node> upper, lower;
+    std::vector<uint32_t> strip;
+    for (int i = 0; i < lat.n; ++i) {
+      for (int j = 0; j < lat.m; ++j) {
+        for (int tri = 0; tri < 2; ++tri) {
+          // Row k of the pattern with the paper's substitutions: a missing end vertex is replaced by
+          // a virtual vertex, the nearest inserted vertex on the same coarse edge (ties: the lower
+          // row); missing base candidates are left out (their neighbours on the base connect).
+          auto build_row = [&](int k, std::vector<Node>& row) {
+            row.clear();
+            for (int c = 0; c <= k; ++c) {
+              int a, b;
+              row_point(P, tri, i, j, k, c, a, b);
+              const double pos = k == 0 ? 0.0 : static_cast<double>(c) / k;
+              if (!inserted(a, b)) {
+                if (c != 0 && c != k) continue;  // only base-row candidates can be missing here
+                const bool left = c == 0;
+                for (int d = 1; d <= P; ++d) {
+                  const int rows[2] = {k + d, k - d};
+                  bool found = false;
+                  for (int r : rows) {
+                    if (r < 0 || r > P) continue;
+                    row_point(P, tri, i, j, r, left ? 0 : r, a, b);
+                    if (inserted(a, b)) {
+                      found = true;
+                      break;
+                    }
+                  }
+                  if (found) break;
+                }
+              }
+              row.push_back({ids[static_cast<size_t>(lat.index(a, b))], a, b, pos});
+            }
+          };
+          auto row_present = [&](int k) {
+            if (k == 0 || k == P) return true;
+            int a0, b0, a1, b1;
+            row_point(P, tri, i, j, k, 0, a0, b0);
+            row_point(P, tri, i, j, k, k, a1, b1);
+            return inserted(a0, b0) || inserted(a1, b1);
+          };
+          build_row(0, upper);
+          for (int k = 1; k <= P; ++k) {
+            if (!row_present(k)) continue;
+            build_row(k, lower);
+            // Zip the two rows into one strip: advance along the row whose next vertex comes first
+            // (ties: the upper row); when two consecutive vertices come from the same row, the
+            // other row's current vertex is replicated (rule 4), which keeps the strip's parity.
+            strip.clear();
+            strip.push_back(lower[0].id);
+            strip.push_back(upper[0].id);
+            bool last_upper = true;
+            size_t ui = 0, di = 0, emitted = 0;
+            while (ui + 1 < upper.size() || di + 1 < lower.size()) {
+              bool advance_upper =
+                  di + 1 >= lower.size() || (ui + 1 < upper.size() && upper[ui + 1].pos <= lower[di + 1].pos);
+              // Where a virtual vertex bends a row onto a coarse edge, the positional choice can make a
+              // flat or flipped triangle; the other choice is then the valid one (exact lattice test).
+              if (ui + 1 < upper.size() && di + 1 < lower.size()) {
+                const Node& chosen = advance_upper ? upper[ui + 1] : lower[di + 1];
+                const Node& other = advance_upper ? lower[di + 1] : upper[ui + 1];
+                if (orient(lower[di], upper[ui], chosen) <= 0 && orient(lower[di], upper[ui], other) > 0) {
+                  advance_upper = !advance_upper;
+                }
+              }
+              const Node& d = lower[di];
+              const Node& u = upper[ui];
+              const Node& x = advance_upper ? upper[ui + 1] : lower[di + 1];
+              if (advance_upper == last_upper) strip.push_back(advance_upper ? d.id : u.id);
+              strip.push_back(x.id);
+              last_upper = advance_upper;
+              const bool same_point = (d.a == u.a && d.b == u.b) || (d.a == x.a && d.b == x.b) || (u.a == x.a && u.b == x.b);
+              if (!same_point) {
+                if (d.id == u.id || d.id == x.id || u.id == x.id) {
+                  ++out.degenerate;  // distinct pattern points on a collapsed side
+                } else {
+                  out.triangles.push_back({d.id, u.id, x.id});
+                  if (params.surface_data) {
+                    out.uv.push_back({Vec2(lat.u(d.a), lat.v(d.b)), Vec2(lat.u(u.a), lat.v(u.b)),
+                                      Vec2(lat.u(x.a), lat.v(x.b))});
+                  }
+                  ++emitted;
+                }
+              }
+              if (advance_upper) {
+                ++ui;
+              } else {
+                ++di;
+              }
+            }
+            if (emitted > 0) out.strips.push_back(strip);
+            std::swap(upper, lower);
+          }
+        }
+      }
+    }
+  });
+
+  // 4. Assemble in patch order and keep only the vertices some triangle uses (side samples that
+  // failed the test were laid out but are not part of the mesh).
+  Tessellation result;
+  uint64_t triangles = 0, strips = 0;
+  for (const PatchOutput& o : outputs) {
+    triangles += o.triangles.size();
+    strips += o.strips.size();
+    result.degenerate_triangles += o.degenerate;
+  }
+  std::vector<uint32_t> remap(full.positions.size(), UINT32_MAX);
+  for (const PatchOutput& o : outputs) {
+    for (const Triangle& t : o.triangles) {
+      for (uint32_t id : t) remap[id] = 0;
+    }
+    // A strip vertex is normally used by one of the strip's triangles; on a patch with collapsed
+    // sides it may only appear in collapsed ones, and the strip still needs a valid id.
+    for (const std::vector<uint32_t>& s : o.strips) {
+      for (uint32_t id : s) remap[id] = 0;
+    }
+  }
+  uint32_t used = 0;
+  for (uint32_t& r : remap) {
+    if (r == 0) r = used++;
+  }
+  result.positions.resize(used);
+  if (params.normals) result.normals.resize(used);
+  if (params.surface_data) result.surface_points.resize(used);
+  for (size_t id = 0; id < remap.size(); ++id) {
+    const uint32_t r = remap[id];
+    if (r == UINT32_MAX) continue;
+    result.positions[r] = full.positions[id];
+    if (params.normals) result.normals[r] = full.normals[id];
+    if (params.surface_data) result.surface_points[r] = full.surface_points[id];
+  }
+  result.triangles.reserve(triangles);
+  result.strips.reserve(strips);
+  if (params.surface_data) {
+    result.triangle_patch.reserve(triangles);
+    result.triangle_uv.reserve(triangles);
+  }
+  for (size_t p = 0; p < np; ++p) {
+    PatchOutput& o = outputs[p];
+    for (const Triangle& t : o.triangles) result.triangles.push_back({remap[t[0]], remap[t[1]], remap[t[2]]});
+    if (params.surface_data) {
+      result.triangle_patch.insert(result.triangle_patch.end(), o.triangles.size(), static_cast<uint32_t>(p));
+      result.triangle_uv.insert(result.triangle_uv.end(), o.uv.begin(), o.uv.end());
+    }
+    for (std::vector<uint32_t>& s : o.strips) {
+      for (uint32_t& id : s) id = remap[id];
+      result.strips.push_back(std::move(s));
+    }
+    o = PatchOutput();
+  }
+
+  if (stats) {
+    uint64_t candidates = 0, inserted = 0;
+    for (size_t p = 0; p < np; ++p) {
+      candidates += patch_candidates[p];
+      inserted += patch_inserted[p];
+    }
+    for (size_t e = 0; e < topology.edges.size(); ++e) {
+      const int n = layout.edge_segments[e];
+      for (int k = 1; k < n; ++k) {
+        if (k % P == 0) continue;
+        ++candidates;
+        inserted += edge_insert[edge_offset[e] + static_cast<uint64_t>(k)];
+      }
+    }
+    stats->candidates = candidates;
+    stats->inserted_vertices = inserted;
+    stats->strips = strips;
+  }
+  return result;
+}
+
+}  // namespace sagitta

@@ -1,0 +1,143 @@
+// Measurements recorded in docs/ESC.md (run by hand, not a test):
+//   sagitta_esc_measure [teacup.bpt] [copies=100]
+// 1. thresholds (bisection on rho) whose triangle counts are nearest the paper's High (93.62%) and
+//    Medium (51.96%) rows of the non-adaptive count, with the sampled distance to the exact surface,
+//    next to the uniform scheme at about the same triangle count;
+// 2. throughput (triangles/s) of ESC and uniform at L = 3, one thread and all threads.
+#include "sagitta/esc.hpp"
+#include "sagitta/evaluate.hpp"
+#include "sagitta/io/model_io.hpp"
+#include "sagitta/uniform.hpp"
+
+#include <glm/geometric.hpp>
+#include <tbb/combinable.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+using namespace sagitta;
+
+namespace {
+
+// Sampled distance: max over triangles and barycentric samples b (k per side) of
+// |S(u(b), v(b)) - T(b)|, (u, v)(b) the barycentric interpolation of the triangle's corners.
+// A lower bound of the true maximum deviation (it samples), not a certificate.
+double sampled_distance(const Model& model, const Tessellation& mesh, int k = 10) {
+  std::vector<PatchEvaluator> evals;
+  evals.reserve(model.patches.size());
+  for (const BezierPatch& p : model.patches) evals.emplace_back(p);
+  tbb::combinable<double> worst([] { return 0.0; });
+  tbb::parallel_for(size_t{0}, mesh.triangles.size(), [&](size_t t) {
+    const Triangle& tri = mesh.triangles[t];
+    const auto& uv = mesh.triangle_uv[t];
+    const PatchEvaluator& e = evals[mesh.triangle_patch[t]];
+    double& w = worst.local();
+    for (int i = 0; i <= k; ++i) {
+      for (int j = 0; i + j <= k; ++j) {
+        const double b1 = static_cast<double>(i) / k, b2 = static_cast<double>(j) / k, b0 = 1.0 - b1 - b2;
+        const Vec2 p = b0 * uv[0] + b1 * uv[1] + b2 * uv[2];
+        const Vec3 q = b0 * mesh.positions[tri[0]] + b1 * mesh.positions[tri[1]] + b2 * mesh.positions[tri[2]];
+        w = std::max(w, glm::length(e.position(p.x, p.y) - q));
+      }
+    }
+  });
+  return worst.combine([](double a, double b) { return std::max(a, b); });
+}
+
+size_t esc_count(const Model& model, const Topology& topo, double rho) {
+  EscParams p;
+  p.level = 3;
+  p.threshold = rho;
+  p.normals = p.surface_data = false;
+  return tessellate_esc(model, topo, p).triangles.size();
+}
+
+template <class F>
+double best_seconds(F&& f, int runs = 5) {
+  double best = 1e30;
+  for (int r = 0; r < runs; ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    f();
+    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return best;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::string path = argc > 1 ? argv[1] : std::string(SAGITTA_SHARED_DATA) + "/teacup.bpt";
+  const int copies = argc > 2 ? std::stoi(argv[2]) : 100;
+  const Model model = replicate(io::read_bpt(path), copies);
+  const Topology topo = build_topology(model);
+  const double diag = model_box(io::read_bpt(path)).diagonal();
+  const size_t full = esc_count(model, topo, 0.0);
+  std::printf("scene: %s x %d, %zu patches, cup diagonal %.6g; ESC L=3 rho=0: %zu triangles\n", path.c_str(), copies,
+              model.patches.size(), diag, full);
+
+  std::printf("\n| row | target | rho | ESC triangles | %% of full | ESC sampled distance | uniform N | uniform triangles | uniform sampled distance |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  for (const auto& [name, fraction] : {std::pair<const char*, double>{"full", 1.0}, {"High", 0.9362}, {"Medium", 0.5196}}) {
+    const double target = fraction * static_cast<double>(full);
+    double rho = 0.0;
+    size_t count = full;
+    if (fraction < 1.0) {
+      // count(rho) does not increase: find the smallest rho with count <= target, then keep whichever
+      // of it and the rho just below is nearer the target.
+      double lo = 1e-12 * diag, hi = diag;  // count(lo) > target >= count(hi)
+      for (int it = 0; it < 60; ++it) {
+        const double mid = std::sqrt(lo * hi);
+        if (static_cast<double>(esc_count(model, topo, mid)) <= target) hi = mid; else lo = mid;
+      }
+      const size_t c_hi = esc_count(model, topo, hi), c_lo = esc_count(model, topo, lo);
+      if (std::abs(static_cast<double>(c_lo) - target) < std::abs(static_cast<double>(c_hi) - target)) {
+        rho = lo;
+        count = c_lo;
+      } else {
+        rho = hi;
+        count = c_hi;
+      }
+    }
+    EscParams p;
+    p.level = 3;
+    p.threshold = rho;
+    const Tessellation esc = tessellate_esc(model, topo, p);
+    const int n = std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(count) / (2.0 * model.patches.size())))));
+    UniformParams up;
+    up.segments = n;
+    const Tessellation uni = tessellate_uniform(model, topo, up);
+    std::printf("| %s | %.0f | %.6g | %zu | %.2f%% | %.6g | %d | %zu | %.6g |\n", name, target, rho, esc.triangles.size(),
+                100.0 * static_cast<double>(esc.triangles.size()) / static_cast<double>(full), sampled_distance(model, esc), n,
+                uni.triangles.size(), sampled_distance(model, uni));
+  }
+
+  std::printf("\nthroughput (best of 5; normals on, surface data off, as `sagitta tessellate`)\n");
+  std::printf("| scheme | threads | triangles | seconds | Mtriangles/s |\n|---|---|---|---|---|\n");
+  const int all = static_cast<int>(tbb::info::default_concurrency());
+  for (int threads : {1, all}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
+    for (double rho : {0.0, 1e-3 * diag}) {
+      EscParams p;
+      p.level = 3;
+      p.threshold = rho;
+      p.surface_data = false;
+      size_t tris = 0;
+      const double s = best_seconds([&] { tris = tessellate_esc(model, topo, p).triangles.size(); });
+      std::printf("| esc L=3 rho=%.3g | %d | %zu | %.4f | %.2f |\n", rho, threads, tris, s, tris / s * 1e-6);
+    }
+    UniformParams up;
+    up.segments = 12;
+    up.surface_data = false;
+    size_t tris = 0;
+    const double s = best_seconds([&] { tris = tessellate_uniform(model, topo, up).triangles.size(); });
+    std::printf("| uniform N=12 | %d | %zu | %.4f | %.2f |\n", threads, tris, s, tris / s * 1e-6);
+  }
+  return 0;
+}
