@@ -20,6 +20,12 @@ struct SchemeOptions {
   double threshold = 0.0;  // esc: distance threshold rho
   uint64_t max_triangles = 200'000'000;
   bool surface_data = true;  // keep (patch, u, v) so the result can be validated
+  // pn
+  std::string pattern = "integer";   // integer | fractional_odd
+  std::string pn_variant = "basic";  // basic | aen
+  int base_level = -1;               // patch model: uniform base with 2^L segments, then PN
+  double tess_factor = -1.0;         // fractional_odd: factor in 1..63 (may be non-integer), instead of --level
+  std::string normals = "file";      // mesh input: file | smooth | face
 };
 
 // The schemes --scheme accepts.
@@ -31,5 +37,11 @@ void add_scheme_options(CLI::App* command, SchemeOptions& options);
 // Runs the chosen scheme; fills `stats` with the scheme's parameters and counts (not timing).
 // Refuses, with a message, a tessellation whose estimated size exceeds max_triangles.
 Tessellation run_scheme(const Model& model, const Topology& topology, const SchemeOptions& options, nlohmann::json& stats);
+
+// True for the mesh files the pn scheme refines (.obj, .ply, .stl).
+bool is_mesh_file(const std::string& path);
+
+// The pn scheme on a triangle mesh (normals chosen by options.normals); fills `stats` likewise.
+Tessellation run_pn_on_mesh(const Tessellation& mesh, const SchemeOptions& options, nlohmann::json& stats);
 
 }  // namespace sagitta::cli

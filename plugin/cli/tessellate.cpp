@@ -18,9 +18,37 @@ struct TessellateOptions {
   std::string stats;
 };
 
+// A mesh input (.obj, .ply, .stl): refined by the pn scheme, no patch model involved.
+void run_tessellate_mesh(const TessellateOptions& o) {
+  const Tessellation input = io::read_mesh(o.input);
+  nlohmann::json stats;
+  stats["input"] = o.input;
+  stats["scheme"] = o.scheme.scheme;
+  const Stopwatch clock;
+  const Tessellation mesh = run_pn_on_mesh(input, o.scheme, stats);
+  stats["seconds"] = clock.seconds();
+  stats["vertices"] = mesh.positions.size();
+  stats["triangles"] = mesh.triangles.size();
+  stats["degenerate_triangles"] = mesh.degenerate_triangles;
+  if (!o.out.empty()) {
+    io::write_mesh(mesh, o.out);
+    stats["output"] = o.out;
+  }
+  if (!o.stats.empty()) write_json(o.stats, stats);
+  std::cout << "pn: " << input.triangles.size() << " input triangles -> " << mesh.triangles.size() << " triangles, "
+            << mesh.positions.size() << " vertices, " << stats["open_edges"].get<size_t>() << " open edges ("
+            << stats["crack_edges"].get<size_t>() << " on " << stats["crease_edges"].get<size_t>()
+            << " crease edges, widest gap " << stats["max_crack_gap"].get<double>() << ") in " << stats["seconds"].get<double>()
+            << " s\n";
+}
+
 void run_tessellate(const TessellateOptions& o) {
   check_output_is_not_input(o.out, o.input);
   check_output_is_not_input(o.stats, o.input);
+  if (is_mesh_file(o.input)) {
+    run_tessellate_mesh(o);
+    return;
+  }
   Model model = replicate(load_model(o.input), o.copies);
   const Topology topology = build_topology(model);
   nlohmann::json stats;
@@ -51,7 +79,7 @@ void run_tessellate(const TessellateOptions& o) {
 Command register_tessellate(CLI::App& app) {
   auto o = std::make_shared<TessellateOptions>();
   CLI::App* cmd = app.add_subcommand("tessellate", "Tessellate a patch model (.bpt, .rib) and write the mesh and statistics");
-  cmd->add_option("input", o->input, "Patch file (.bpt, .rib); omit or 'default' for the built-in model");
+  cmd->add_option("input", o->input, "Patch file (.bpt, .rib); omit or 'default' for the built-in model; or a mesh (.obj, .ply, .stl) for --scheme pn");
   add_scheme_options(cmd, o->scheme);
   cmd->add_option("--copies", o->copies, "Place K translated instances of the model (the papers' scenes)")
       ->check(CLI::Range(1, 1000000))

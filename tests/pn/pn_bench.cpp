@@ -27,6 +27,7 @@ using namespace sagitta;
 struct Distances {
   double parametric = 0.0;
   double closest = 0.0;
+  SurfacePoint worst_closest;  // where the closest-point distance is largest
 };
 
 Distances sampled_distance(const Model& model, const std::vector<PatchEvaluator>& evals, const Tessellation& mesh, int m) {
@@ -54,7 +55,11 @@ Distances sampled_distance(const Model& model, const std::vector<PatchEvaluator>
                 p.y = std::clamp(p.y + (a * gv - b * gu) / det, 0.0, 1.0);
                 e = eval.evaluate(p.x, p.y);
               }
-              d.closest = std::max(d.closest, glm::length(e.position - x));
+              const double dc = glm::length(e.position - x);
+              if (dc > d.closest) {
+                d.closest = dc;
+                d.worst_closest = {mesh.triangle_patch[t], p.x, p.y};
+              }
             }
           }
         }
@@ -62,7 +67,10 @@ Distances sampled_distance(const Model& model, const std::vector<PatchEvaluator>
       },
       [](Distances a, const Distances& b) {
         a.parametric = std::max(a.parametric, b.parametric);
-        a.closest = std::max(a.closest, b.closest);
+        if (b.closest > a.closest) {
+          a.closest = b.closest;
+          a.worst_closest = b.worst_closest;
+        }
         return a;
       });
   (void)model;
@@ -80,8 +88,8 @@ int main(int argc, char** argv) {
   const double diag = model_box(model).diagonal();
   std::printf("model %s: %zu patches, box diagonal %.4f; %d samples per triangle side\n\n", path.c_str(),
               model.patches.size(), diag, m);
-  std::printf("| base L | k | PN triangles | PN parametric | PN closest | uniform N | uniform triangles | uniform parametric | uniform closest | PN ms |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("| base L | k | PN triangles | PN parametric | PN closest | uniform N | uniform triangles | uniform parametric | uniform closest | PN ms | PN worst (patch u v) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (int level = 1; level <= 2; ++level) {
     UniformParams up;
     up.segments = 1 << level;
@@ -97,8 +105,9 @@ int main(int argc, char** argv) {
       uq.segments = up.segments * k;
       const Tessellation uni = tessellate_uniform(model, topology, uq);
       const Distances du = sampled_distance(model, evals, uni, m);
-      std::printf("| %d | %d | %zu | %.3e | %.3e | %d | %zu | %.3e | %.3e | %.1f |\n", level, k, pn.triangles.size(),
-                  dp.parametric, dp.closest, uq.segments, uni.triangles.size(), du.parametric, du.closest, ms);
+      std::printf("| %d | %d | %zu | %.3e | %.3e | %d | %zu | %.3e | %.3e | %.1f | %u %.2f %.2f |\n", level, k,
+                  pn.triangles.size(), dp.parametric, dp.closest, uq.segments, uni.triangles.size(), du.parametric,
+                  du.closest, ms, dp.worst_closest.patch, dp.worst_closest.u, dp.worst_closest.v);
       std::fflush(stdout);
     }
   }
