@@ -1,0 +1,278 @@
+// Certified distance: closed-form cases, rational patches, and the tea set against a brute-force
+// reference (dense samples projected by Newton in long double, written here independently).
+#include "sagitta/certify.hpp"
+#include "sagitta/fixtures.hpp"
+#include "sagitta/io/model_io.hpp"
+#include "sagitta/uniform.hpp"
+#include "test_support.hpp"
+
+#include <glm/geometric.hpp>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+
+namespace sagitta {
+namespace {
+
+using LD = long double;
+struct LVec {
+  LD x = 0, y = 0, z = 0;
+};
+LVec operator-(LVec a, LVec b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+LD dot(LVec a, LVec b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+// Bernstein basis value and derivative in long double.
+void bernstein(int n, LD t, LD* b, LD* db) {
+  for (int i = 0; i <= n; ++i) {
+    LD c = 1;
+    for (int k = 1; k <= i; ++k) c = c * (n - i + k) / k;
+    b[i] = c * std::pow(t, i) * std::pow(1 - t, n - i);
+    LD d = 0;
+    if (i > 0) d += i * std::pow(t, i - 1) * std::pow(1 - t, n - i);
+    if (i < n) d -= (n - i) * std::pow(t, i) * std::pow(1 - t, n - i - 1);
+    db[i] = c * d;
+  }
+}
+
+// Position and partials of a polynomial or rational patch, in long double (quotient rule).
+void eval_ld(const BezierPatch& p, LD u, LD v, LVec& s, LVec& su, LVec& sv) {
+  LD bu[32], dbu[32], bv[32], dbv[32];
+  bernstein(p.degree_u, u, bu, dbu);
+  bernstein(p.degree_v, v, bv, dbv);
+  LD N[3] = {0, 0, 0}, Nu[3] = {0, 0, 0}, Nv[3] = {0, 0, 0}, W = 0, Wu = 0, Wv = 0;
+  for (int i = 0; i <= p.degree_u; ++i) {
+    for (int j = 0; j <= p.degree_v; ++j) {
+      const LD w = p.weight(i, j);
+      const LD c[3] = {p.at(i, j).x, p.at(i, j).y, p.at(i, j).z};
+      for (int k = 0; k < 3; ++k) {
+        N[k] += bu[i] * bv[j] * w * c[k];
+        Nu[k] += dbu[i] * bv[j] * w * c[k];
+        Nv[k] += bu[i] * dbv[j] * w * c[k];
+      }
+      W += bu[i] * bv[j] * w;
+      Wu += dbu[i] * bv[j] * w;
+      Wv += bu[i] * dbv[j] * w;
+    }
+  }
+  s = {N[0] / W, N[1] / W, N[2] / W};
+  su = {(Nu[0] - s.x * Wu) / W, (Nu[1] - s.y * Wu) / W, (Nu[2] - s.z * Wu) / W};
+  sv = {(Nv[0] - s.x * Wv) / W, (Nv[1] - s.y * Wv) / W, (Nv[2] - s.z * Wv) / W};
+}
+
+// Distance from x to the patch by Gauss-Newton in long double seeded at (u, v), clamped.
+LD newton_distance(const BezierPatch& p, LVec x, LD u, LD v) {
+  LVec s, su, sv;
+  for (int it = 0; it < 30; ++it) {
+    eval_ld(p, u, v, s, su, sv);
+    const LVec r = x - s;
+    const LD a = dot(su, su), b = dot(su, sv), c = dot(sv, sv), det = a * c - b * b;
+    if (!(det > 1e-40L)) break;
+    const LD ru = dot(su, r), rv = dot(sv, r);
+    u = std::clamp(u + (c * ru - b * rv) / det, LD(0), LD(1));
+    v = std::clamp(v + (a * rv - b * ru) / det, LD(0), LD(1));
+  }
+  eval_ld(p, u, v, s, su, sv);
+  const LVec r = x - s;
+  return std::sqrt(dot(r, r));
+}
+
+struct Brute {
+  LD max_distance = 0;  // largest projected distance over the samples
+  LD gap = 0;           // largest sample spacing on the mesh (d(., S) is 1-Lipschitz)
+};
+
+// Dense samples (k per side) on every stride-th triangle, projected by Newton from the triangle's uv.
+Brute brute_force(const Model& model, const Tessellation& mesh, int k, size_t stride) {
+  Brute br;
+  for (size_t t = 0; t < mesh.triangles.size(); t += stride) {
+    const auto& tri = mesh.triangles[t];
+    const auto& uv = mesh.triangle_uv[t];
+    const BezierPatch& patch = model.patches[mesh.triangle_patch[t]];
+    Vec3 P[3];
+    for (int c = 0; c < 3; ++c) P[c] = mesh.positions[tri[c]];
+    for (int c = 0; c < 3; ++c) br.gap = std::max<LD>(br.gap, glm::length(P[c] - P[(c + 1) % 3]) / k);
+    for (int i = 0; i <= k; ++i) {
+      for (int j = 0; i + j <= k; ++j) {
+        const LD b0 = LD(i) / k, b1 = LD(j) / k, b2 = 1 - b0 - b1;
+        const LVec x{b0 * P[0].x + b1 * P[1].x + b2 * P[2].x, b0 * P[0].y + b1 * P[1].y + b2 * P[2].y,
+                     b0 * P[0].z + b1 * P[1].z + b2 * P[2].z};
+        const LD u = b0 * uv[0].x + b1 * uv[1].x + b2 * uv[2].x, v = b0 * uv[0].y + b1 * uv[1].y + b2 * uv[2].y;
+        // Newton from the triangle's own (u, v), and from a 4 x 4 grid of seeds when that start
+        // lands on a poor local minimum (near-degenerate patches); the smallest is kept.
+        LD d = newton_distance(patch, x, u, v);
+        for (int su = 0; su <= 3; ++su) {
+          for (int sv = 0; sv <= 3; ++sv) d = std::min(d, newton_distance(patch, x, su / LD(3), sv / LD(3)));
+        }
+        br.max_distance = std::max(br.max_distance, d);
+      }
+    }
+  }
+  return br;
+}
+
+Tessellation uniform(const Model& model, int segments) {
+  UniformParams params;
+  params.segments = segments;
+  return tessellate_uniform(model, build_topology(model), params);
+}
+
+TEST(Certify, PlanarBilinearPatchIsExact) {
+  Model model;
+  BezierPatch p;
+  p.degree_u = 1;
+  p.degree_v = 1;
+  p.points = {Vec3(0, 0, 0), Vec3(0, 2, 0.5), Vec3(3, 0, 0), Vec3(3, 2, 0.5)};  // a plane, skewed grid
+  model.patches.push_back(p);
+  for (int n : {1, 3, 8}) {
+    const DistanceReport r = certify_distance(model, uniform(model, n));
+    EXPECT_TRUE(r.coverage_ok) << r.coverage_note;
+    EXPECT_EQ(r.hausdorff.lower, 0.0);
+    EXPECT_LE(r.hausdorff.upper, 1e-13) << "n = " << n;
+    EXPECT_TRUE(r.hausdorff.certified);
+  }
+}
+
+// Exact Hausdorff distance between the parabola z = c x^2 on [-1, 1] and its chord polyline with N
+// uniform segments, by nested 1-D searches in long double (independent of the validator).
+LD parabola_hausdorff(LD c, int N) {
+  auto dist_to_parabola = [&](LD px, LD pz) {
+    LD x = px;  // Newton on f'(x) = (x - px) + 2 c x (c x^2 - pz) = 0, from the point's own x
+    for (int it = 0; it < 60; ++it) {
+      const LD g = (x - px) + 2 * c * x * (c * x * x - pz), dg = 1 + 6 * c * c * x * x - 2 * c * pz;
+      x -= g / dg;
+    }
+    x = std::clamp(x, LD(-1), LD(1));
+    return std::hypot(x - px, c * x * x - pz);
+  };
+  auto seg_point = [&](int k, LD t, LD& x, LD& z) {
+    const LD x0 = -1 + LD(2) * k / N, x1 = -1 + LD(2) * (k + 1) / N;
+    x = x0 + t * (x1 - x0);
+    z = c * x0 * x0 + t * (c * x1 * x1 - c * x0 * x0);
+  };
+  auto dist_to_polyline = [&](LD px, LD pz) {
+    LD best = INFINITY;
+    for (int k = 0; k < N; ++k) {
+      LD ax, az, bx, bz;
+      seg_point(k, 0, ax, az);
+      seg_point(k, 1, bx, bz);
+      const LD t = std::clamp(((px - ax) * (bx - ax) + (pz - az) * (bz - az)) / ((bx - ax) * (bx - ax) + (bz - az) * (bz - az)),
+                              LD(0), LD(1));
+      best = std::min(best, std::hypot(ax + t * (bx - ax) - px, az + t * (bz - az) - pz));
+    }
+    return best;
+  };
+  auto golden_max = [](auto f, LD lo, LD hi) {
+    const LD g = (std::sqrt(LD(5)) - 1) / 2;
+    for (int it = 0; it < 200; ++it) {
+      const LD a = hi - g * (hi - lo), b = lo + g * (hi - lo);
+      if (f(a) < f(b)) lo = a; else hi = b;
+    }
+    return f((lo + hi) / 2);
+  };
+  LD h = 0;
+  for (int k = 0; k < N; ++k) {
+    h = std::max(h, golden_max([&](LD t) { LD x, z; seg_point(k, t, x, z); return dist_to_parabola(x, z); }, 0, 1));
+    const LD x0 = -1 + LD(2) * k / N, x1 = -1 + LD(2) * (k + 1) / N;
+    h = std::max(h, golden_max([&](LD x) { return dist_to_polyline(x, c * x * x); }, x0, x1));
+  }
+  return h;
+}
+
+TEST(Certify, ParabolicCylinderContainsExactHausdorff) {
+  Model model;
+  model.patches.push_back(fixtures::parabolic_cylinder(1.0));
+  for (int n : {2, 4, 16, 64}) {
+    const DistanceReport r = certify_distance(model, uniform(model, n));
+    const double exact = static_cast<double>(parabola_hausdorff(1.0L, n));
+    std::cout << "[parabolic cylinder N=" << n << "] exact " << exact << " in [" << r.hausdorff.lower << ", "
+              << r.hausdorff.upper << "] width " << r.hausdorff.width() << " ratio " << r.hausdorff.ratio() << "\n";
+    EXPECT_LE(r.hausdorff.lower, exact);
+    EXPECT_GE(r.hausdorff.upper, exact);
+    EXPECT_LE(r.hausdorff.ratio(), 1.1);
+    EXPECT_LE(r.mesh_to_surface.upper, 1.0 / (n * n) * (1 + 1e-9));  // the vertical gap c / N^2 bounds it too
+  }
+}
+
+TEST(Certify, AffineBoundIsTightForAQuadraticCurve) {
+  // S(u, v) = (u, v, u^2) against the chord plane z = u over the whole square: max error 1/4.
+  BezierPatch p;
+  p.degree_u = 2;
+  p.degree_v = 1;
+  for (int i = 0; i <= 2; ++i) {
+    for (int j = 0; j <= 1; ++j) p.points.emplace_back(i / 2.0, double(j), i == 2 ? 1.0 : 0.0);
+  }
+  const Vec2 q[3] = {Vec2(0, 0), Vec2(1, 0), Vec2(0, 1)};
+  const Vec3 X[3] = {Vec3(0, 0, 0), Vec3(1, 0, 1), Vec3(0, 1, 0)};
+  const double bound = affine_error_bound(p, q, X);
+  // e(b) = u^2 - u with u = b1: Bernstein coefficients of degree 3 are 0, -1/3, -1/3, 0 along that edge.
+  EXPECT_GE(bound, 0.25);
+  EXPECT_LE(bound, 1.0 / 3.0 + 1e-12);
+}
+
+TEST(Certify, RationalTorusAgainstBruteForce) {
+  const Model model = fixtures::rational_torus();
+  for (int n : {2, 4}) {
+    const Tessellation mesh = uniform(model, n);
+    const DistanceReport r = certify_distance(model, mesh);
+    const Brute br = brute_force(model, mesh, 8, 1);
+    std::cout << "[torus N=" << n << "] [" << r.hausdorff.lower << ", " << r.hausdorff.upper << "] ratio "
+              << r.hausdorff.ratio() << " brute " << static_cast<double>(br.max_distance) << "\n";
+    EXPECT_TRUE(r.hausdorff.certified) << r.coverage_note;
+    EXPECT_LE(static_cast<double>(br.max_distance), r.mesh_to_surface.upper);
+    EXPECT_GE(static_cast<double>(br.max_distance + br.gap), r.mesh_to_surface.lower);
+    EXPECT_LE(r.hausdorff.ratio(), 1.1);
+  }
+}
+
+TEST(Certify, DistanceLowerBoundIsSound) {
+  // Points on a sphere-like offset of the pillow box: the certified lower bound never exceeds a
+  // brute-force distance, and comes close to it.
+  const Model model = fixtures::pillow_box();
+  for (const Vec3 x : {Vec3(0.3, 0.2, 1.6), Vec3(2.0, 2.0, 2.0), Vec3(0.1, -0.05, 0.2)}) {
+    LD best = INFINITY;
+    for (const BezierPatch& p : model.patches) {
+      for (int i = 0; i <= 16; ++i) {
+        for (int j = 0; j <= 16; ++j) best = std::min(best, newton_distance(p, {x.x, x.y, x.z}, i / 16.0L, j / 16.0L));
+      }
+    }
+    const double low = certified_distance_lower(model, x, static_cast<double>(best), 200000);
+    EXPECT_LE(low, static_cast<double>(best) * (1 + 1e-12));
+    EXPECT_GE(low, 0.98 * static_cast<double>(best));
+  }
+}
+
+TEST(Certify, NoSurfaceDataIsAnInputError) {
+  const Model model = fixtures::pillow_box();
+  UniformParams params;
+  params.segments = 2;
+  params.surface_data = false;
+  const Tessellation mesh = tessellate_uniform(model, build_topology(model), params);
+  EXPECT_THROW(certify_distance(model, mesh), InputError);
+}
+
+class TeaSet : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(TeaSet, UniformLevelsAgainstBruteForce) {
+  const std::string path = test::shared_data(std::string(GetParam()) + ".bpt");
+  SAGITTA_REQUIRE_DATA(path);
+  const Model model = io::read_bpt(path);
+  for (int level = 1; level <= 4; ++level) {
+    const Tessellation mesh = uniform(model, segments_for_level(level));
+    const DistanceReport r = certify_distance(model, mesh);
+    const Brute br = brute_force(model, mesh, 4, level <= 2 ? 1 : (level == 3 ? 5 : 17));
+    std::cout << "[" << GetParam() << " level " << level << "] " << mesh.triangles.size() << " triangles  H in ["
+              << r.hausdorff.lower << ", " << r.hausdorff.upper << "] ratio " << r.hausdorff.ratio() << "  m2s ["
+              << r.mesh_to_surface.lower << ", " << r.mesh_to_surface.upper << "]  brute "
+              << static_cast<double>(br.max_distance) << "  " << r.seconds << " s\n";
+    EXPECT_TRUE(r.hausdorff.certified) << r.coverage_note;
+    EXPECT_LE(r.hausdorff.ratio(), 1.1) << "level " << level;
+    EXPECT_LE(static_cast<double>(br.max_distance), r.mesh_to_surface.upper) << "level " << level;
+    EXPECT_GE(static_cast<double>(br.max_distance + br.gap), r.mesh_to_surface.lower) << "level " << level;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Models, TeaSet, ::testing::Values("teapot", "teacup", "teaspoon"));
+
+}  // namespace
+}  // namespace sagitta

@@ -1,0 +1,86 @@
+// Certified distances between a tessellation and the exact Bézier surfaces of its model.
+//
+// Every interval [lower, upper] returned here satisfies lower <= true distance <= upper, with
+// floating-point rounding accounted for by an explicit additive term (see docs/VALIDATION.md).
+// A bound that could not be certified (for example surface->mesh when the triangles' (u, v) do not
+// cover a patch's domain) has certified == false and upper = +infinity.
+#pragma once
+
+#include "sagitta/model.hpp"
+#include "sagitta/tessellation.hpp"
+
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace sagitta {
+
+struct DistanceInterval {
+  double lower = 0.0;
+  double upper = std::numeric_limits<double>::infinity();
+  bool certified = false;  // upper is a proven bound (lower always is)
+  // Where the lower bound was attained (a mesh point for mesh->surface, a surface point for
+  // surface->mesh); patch = -1 when unknown.
+  Vec3 witness{0.0};
+  int64_t witness_patch = -1;
+  double width() const { return upper - lower; }
+  double ratio() const { return lower > 0.0 ? upper / lower : std::numeric_limits<double>::infinity(); }
+};
+
+struct CertifyOptions {
+  // Subdivide a triangle's barycentric domain (4-split) while its bound exceeds
+  // target_ratio * (current lower estimate), down to max_depth levels (4^max_depth leaves).
+  double target_ratio = 1.05;
+  int max_depth = 5;
+  // Number of worst candidate points per direction whose distance is certified for the lower bounds.
+  int lower_candidates = 24;
+  // Node budget of the branch-and-bound that certifies d(x, S) from below, per candidate point.
+  int lower_node_budget = 200000;
+};
+
+struct DistanceReport {
+  DistanceInterval mesh_to_surface;
+  DistanceInterval surface_to_mesh;
+  DistanceInterval hausdorff;
+  std::vector<double> triangle_upper;  // per triangle: max of both directions' bounds over it
+  bool coverage_ok = false;            // every patch's domain is covered by the triangles' (u, v)
+  std::string coverage_note;           // why coverage failed, when it did
+  double rounding = 0.0;               // the largest rounding term added to any triangle's bound
+  uint64_t leaves = 0;                 // sub-triangles evaluated in total
+  uint64_t budget_exhausted = 0;       // triangles still above the target at max_depth
+  double seconds = 0.0;
+};
+
+// Certified distance for a tessellation that carries triangle_patch and triangle_uv (our schemes).
+// Upper bounds: per triangle, the Bernstein coefficients of S(phi(b)) - X(b) over sub-triangles,
+// where phi, X are affine (either the triangle's own (u, v), or corners matched by projection),
+// bound the error by the convex hull property. Lower bounds: exact distances at candidate points
+// certified by branch-and-bound (mesh->surface) and by an AABB tree on the mesh (surface->mesh).
+// Throws InputError when the tessellation has no surface data or refers to a missing patch.
+DistanceReport certify_distance(const Model& model, const Tessellation& mesh, const CertifyOptions& options = {});
+
+// A value <= the distance from x to the union of all patches of the model, tightened by
+// branch-and-bound towards `target` (it never exceeds target). Spends at most node_budget nodes.
+double certified_distance_lower(const Model& model, const Vec3& x, double target, int node_budget);
+
+// Upper bound of max over the triangle of |S(sum b_i q_i) - sum b_i X_i| (q_i in the patch's
+// domain), from the Bernstein form of the composition (degree n + m, or n + m + 1 for rational
+// patches), rounding included. Exposed for tests.
+double affine_error_bound(const BezierPatch& patch, const Vec2 q[3], const Vec3 X[3]);
+
+// Certified distance for a mesh without (u, v) (an STL, OCCT's BRepMesh output):
+// mesh->surface upper = certified error of a uniform reference tessellation (eps_ref) plus, per
+// mesh triangle, the largest vertex distance to that reference (the distance to a triangle mesh is
+// convex along a triangle only when measured to a single convex piece, so vertices alone are not
+// enough: each triangle is subdivided until its circumradius is below its vertices' slack); surface->mesh
+// upper = the largest distance from reference-surface samples to the mesh plus a Lipschitz term
+// for the gaps between samples. Lower bounds as for certify_distance.
+struct ExternalOptions {
+  int reference_segments = 32;   // uniform segments per patch side of the reference tessellation
+  int surface_samples = 64;      // samples per patch side for surface->mesh
+  CertifyOptions certify;
+};
+DistanceReport certify_external(const Model& model, const Tessellation& mesh, const ExternalOptions& options = {});
+
+}  // namespace sagitta

@@ -1,0 +1,663 @@
+// Certified distance between a tessellation and its Bézier surfaces (see docs/VALIDATION.md).
+#include "sagitta/certify.hpp"
+
+#include "mesh_distance.hpp"
+#include "sagitta/evaluate.hpp"
+
+#include <glm/geometric.hpp>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <mutex>
+#include <numeric>
+#include <vector>
+
+namespace sagitta {
+
+namespace {
+
+using H = std::array<double, 4>;
+constexpr double kUnit = std::numeric_limits<double>::epsilon() / 2;  // unit roundoff u = 2^-53
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+H lerp(const H& a, const H& b, double t) {
+  const double s = 1.0 - t;
+  return {s * a[0] + t * b[0], s * a[1] + t * b[1], s * a[2] + t * b[2], s * a[3] + t * b[3]};
+}
+
+double norm3(const H& h) { return std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]); }
+
+// Per patch data: homogeneous control points relative to a local origin and the magnitudes the
+// rounding bound needs.
+struct PatchData {
+  const BezierPatch* patch = nullptr;
+  int n = 0, m = 0;
+  Vec3 origin{0.0};
+  std::vector<H> h;  // (w (P - o), w), row-major like the patch
+  double hmag = 0.0;  // max |w (P - o)|
+  double wmin = 1.0, wmax = 1.0;
+  double lipschitz = 0.0;  // >= max |dS/du| + |dS/dv| over the domain
+};
+
+PatchData make_patch_data(const BezierPatch& patch) {
+  PatchData d;
+  d.patch = &patch;
+  d.n = patch.degree_u;
+  d.m = patch.degree_v;
+  d.origin = control_box(patch).center();
+  d.wmin = kInf;
+  d.wmax = 0.0;
+  for (int i = 0; i <= d.n; ++i) {
+    for (int j = 0; j <= d.m; ++j) {
+      const double w = patch.weight(i, j);
+      const Vec3 p = patch.at(i, j) - d.origin;
+      d.h.push_back({w * p.x, w * p.y, w * p.z, w});
+      d.hmag = std::max(d.hmag, w * glm::length(p));
+      d.wmin = std::min(d.wmin, w);
+      d.wmax = std::max(d.wmax, w);
+    }
+  }
+  // dS/du = (N_u - (S - o) W_u) / W with N = sum w (P - o) B: |N_u| <= n max |Δ_u (w (P - o))|,
+  // |W_u| <= n max |Δ_u w|, |S - o| <= max |P - o|.
+  double rmax = 0.0;
+  for (const Vec3& p : patch.points) rmax = std::max(rmax, glm::length(p - d.origin));
+  auto at = [&](int i, int j) { return d.h[static_cast<size_t>(i * (d.m + 1) + j)]; };
+  double du = 0.0, dv = 0.0;
+  for (int i = 0; i <= d.n; ++i) {
+    for (int j = 0; j <= d.m; ++j) {
+      if (i < d.n) {
+        const H a = at(i, j), b = at(i + 1, j);
+        const H diff{b[0] - a[0], b[1] - a[1], b[2] - a[2], b[3] - a[3]};
+        du = std::max(du, d.n * (norm3(diff) + rmax * std::abs(diff[3])) / d.wmin);
+      }
+      if (j < d.m) {
+        const H a = at(i, j), b = at(i, j + 1);
+        const H diff{b[0] - a[0], b[1] - a[1], b[2] - a[2], b[3] - a[3]};
+        dv = std::max(dv, d.m * (norm3(diff) + rmax * std::abs(diff[3])) / d.wmin);
+      }
+    }
+  }
+  d.lipschitz = (du + dv) * (1.0 + 1e-12);
+  return d;
+}
+
+// Triples (a0, a1, a2) with a0 + a1 + a2 = s, in a fixed order; index(a0, a1) finds one.
+struct Triples {
+  int s = 0;
+  std::vector<std::array<int, 3>> list;
+  std::vector<int> index;  // (a0 * (s + 1) + a1) -> position
+  explicit Triples(int total = 0) : s(total), index(static_cast<size_t>((total + 1) * (total + 1)), -1) {
+    for (int a0 = 0; a0 <= s; ++a0) {
+      for (int a1 = 0; a0 + a1 <= s; ++a1) {
+        index[static_cast<size_t>(a0 * (s + 1) + a1)] = static_cast<int>(list.size());
+        list.push_back({a0, a1, s - a0 - a1});
+      }
+    }
+  }
+  int at(int a0, int a1) const { return index[static_cast<size_t>(a0 * (s + 1) + a1)]; }
+};
+
+// Scratch space reused across triangles by one thread.
+struct Scratch {
+  int n = -1, m = -1;
+  Triples tu, tv, tn;
+  std::vector<H> qa;   // per u-triple: m + 1 points
+  std::vector<H> r;    // per (u-triple, v-triple): the blossom value
+  std::vector<H> coef; // per degree-(n + m) triple
+  std::vector<H> work;
+  void prepare(int n_, int m_) {
+    if (n == n_ && m == m_) return;
+    n = n_;
+    m = m_;
+    tu = Triples(n);
+    tv = Triples(m);
+    tn = Triples(n + m);
+    qa.assign(tu.list.size() * static_cast<size_t>(m + 1), H{});
+    r.assign(tu.list.size() * tv.list.size(), H{});
+    coef.assign(tn.list.size(), H{});
+    work.assign(static_cast<size_t>(std::max(n, m) + 1), H{});
+  }
+};
+
+// The core bound: Bernstein coefficients of S(sum b_i q_i) - sum b_i X_i over the triangle by
+// blossoming. The tensor-product blossom with i copies of corner 0, j of corner 1 and k of corner 2
+// split into n u-arguments and m v-arguments (averaged over all splits, Vandermonde weights) gives
+// the triangular Bernstein coefficient c_ijk of the composition, exactly in exact arithmetic.
+double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scratch& s) {
+  const int n = P.n, m = P.m, N = n + m;
+  s.prepare(n, m);
+  const size_t nu = s.tu.list.size(), nv = s.tv.list.size();
+  double args[2 * kMaxDegree + 2];
+  // u-blossom of every column for each u-triple.
+  for (size_t a = 0; a < nu; ++a) {
+    const auto& t = s.tu.list[a];
+    int c = 0;
+    for (int l = 0; l < 3; ++l) {
+      for (int k = 0; k < t[l]; ++k) args[c++] = q[l].x;
+    }
+    for (int j = 0; j <= m; ++j) {
+      for (int i = 0; i <= n; ++i) s.work[i] = P.h[static_cast<size_t>(i * (m + 1) + j)];
+      for (int level = 1; level <= n; ++level) {
+        for (int i = 0; i <= n - level; ++i) s.work[i] = lerp(s.work[i], s.work[i + 1], args[level - 1]);
+      }
+      s.qa[a * (m + 1) + j] = s.work[0];
+    }
+  }
+  // v-blossom for each (u-triple, v-triple).
+  for (size_t b = 0; b < nv; ++b) {
+    const auto& t = s.tv.list[b];
+    int c = 0;
+    for (int l = 0; l < 3; ++l) {
+      for (int k = 0; k < t[l]; ++k) args[c++] = q[l].y;
+    }
+    for (size_t a = 0; a < nu; ++a) {
+      for (int j = 0; j <= m; ++j) s.work[j] = s.qa[a * (m + 1) + j];
+      for (int level = 1; level <= m; ++level) {
+        for (int j = 0; j <= m - level; ++j) s.work[j] = lerp(s.work[j], s.work[j + 1], args[level - 1]);
+      }
+      s.r[a * nv + b] = s.work[0];
+    }
+  }
+  // Triangular coefficients of degree N.
+  const double inv_total = 1.0 / binomial(N, n);
+  double wmin_poly = kInf;
+  for (size_t g = 0; g < s.tn.list.size(); ++g) {
+    const auto& al = s.tn.list[g];
+    H acc{0, 0, 0, 0};
+    for (int a0 = 0; a0 <= std::min(al[0], n); ++a0) {
+      for (int a1 = 0; a1 <= std::min(al[1], n - a0); ++a1) {
+        const int a2 = n - a0 - a1;
+        if (a2 > al[2]) continue;
+        const double wgt = binomial(al[0], a0) * binomial(al[1], a1) * binomial(al[2], a2) * inv_total;
+        const H& v = s.r[static_cast<size_t>(s.tu.at(a0, a1)) * nv + static_cast<size_t>(s.tv.at(al[0] - a0, al[1] - a1))];
+        for (int c = 0; c < 4; ++c) acc[c] += wgt * v[c];
+      }
+    }
+    s.coef[g] = acc;
+    wmin_poly = std::min(wmin_poly, acc[3]);
+  }
+  Vec3 Xl[3];
+  double xmag = 0.0;
+  for (int l = 0; l < 3; ++l) {
+    Xl[l] = X[l] - P.origin;
+    xmag = std::max(xmag, glm::length(Xl[l]));
+  }
+  double emax = 0.0;
+  if (!P.patch->rational()) {
+    // e_ijk = c_ijk - (i X0 + j X1 + k X2) / N  (the affine part degree-elevated to N, exactly).
+    for (size_t g = 0; g < s.tn.list.size(); ++g) {
+      const auto& al = s.tn.list[g];
+      const Vec3 lin = (double(al[0]) * Xl[0] + double(al[1]) * Xl[1] + double(al[2]) * Xl[2]) / double(N);
+      const Vec3 e(s.coef[g][0] - lin.x, s.coef[g][1] - lin.y, s.coef[g][2] - lin.z);
+      emax = std::max(emax, glm::length(e));
+    }
+    wmin_poly = 1.0;
+  } else {
+    // N(b) - W(b) X(b) has degree N + 1: E_g = sum_l g_l / (N + 1) (Nc_{g - e_l} - Wc_{g - e_l} X_l).
+    const Triples& t1 = s.tn;  // degree N indices
+    const Triples up(N + 1);
+    for (const auto& g : up.list) {
+      Vec3 e(0.0);
+      for (int l = 0; l < 3; ++l) {
+        if (g[l] == 0) continue;
+        std::array<int, 3> h = g;
+        --h[l];
+        const H& c = s.coef[static_cast<size_t>(t1.at(h[0], h[1]))];
+        e += (double(g[l]) / double(N + 1)) * (Vec3(c[0], c[1], c[2]) - c[3] * Xl[l]);
+      }
+      emax = std::max(emax, glm::length(e));
+    }
+    if (!(wmin_poly > 0.0)) return kInf;
+    emax /= wmin_poly;
+  }
+  // Rounding: every coefficient is a chain of at most N lerps (convex combinations, args in [0, 1])
+  // and one weighted sum; each step errs by at most 3u times the magnitudes involved. The constant
+  // 8 (N + 4) is a margin of more than 2 over that count; see docs/VALIDATION.md.
+  const double rounding = 8.0 * (N + 4) * kUnit * (P.hmag + P.wmax * xmag) / std::min(wmin_poly, P.wmin) +
+                          4.0 * kUnit * P.lipschitz;
+  return emax * (1.0 + 4.0 * kUnit) + rounding;
+}
+
+// Gauss-Newton projection of x onto the patch, seeded at q, clamped to the domain. Any result is
+// acceptable to the callers (they only need some surface point), so this never fails.
+Vec2 project(const BezierPatch& patch, const Vec3& x, Vec2 q) {
+  for (int it = 0; it < 8; ++it) {
+    const SurfacePointEval e = evaluate_with_derivatives(patch, q.x, q.y);
+    const Vec3 r = x - e.position;
+    const double a = glm::dot(e.du, e.du), b = glm::dot(e.du, e.dv), c = glm::dot(e.dv, e.dv);
+    const double det = a * c - b * b;
+    if (!(det > 1e-300)) break;
+    const double ru = glm::dot(e.du, r), rv = glm::dot(e.dv, r);
+    Vec2 step((c * ru - b * rv) / det, (a * rv - b * ru) / det);
+    const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
+    const double moved = std::abs(next.x - q.x) + std::abs(next.y - q.y);
+    q = next;
+    if (moved < 1e-15) break;
+  }
+  return q;
+}
+
+Vec3 eval(const BezierPatch& patch, Vec2 q) {
+  const auto p = de_casteljau<double>(patch, q.x, q.y);
+  return Vec3(p[0], p[1], p[2]);
+}
+
+// Closest point of triangle (a, b, c) to p (Ericson, Real-Time Collision Detection 5.1.5); the
+// result is a convex combination of the corners.
+Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vec3 bp = p - b;
+  const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + (d1 / (d1 - d3)) * ab;
+  const Vec3 cp = p - c;
+  const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + (d2 / (d2 - d6)) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  const double v = vb * denom, w = vc * denom;
+  return (1.0 - v - w) * a + v * b + w * c;
+}
+
+struct TriangleResult {
+  double m2s = 0.0, s2m = 0.0;
+  double m2s_est = 0.0;  // largest residual |x - S(proj x)| seen (a candidate, not a bound)
+  Vec3 m2s_point{0.0};
+  Vec2 m2s_seed{0.0};
+  double s2m_est = 0.0;
+  Vec2 s2m_uv{0.0};
+  uint64_t leaves = 0;
+  bool exhausted = false;
+};
+
+struct Leaf {
+  std::array<Vec3, 3> b;  // barycentric corners
+  int depth = 0;
+};
+
+// Refines one triangle; `tau` is the level below which a leaf is accepted.
+TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv, const std::array<Vec3, 3>& T,
+                               double tau, int max_depth, Scratch& s) {
+  TriangleResult res;
+  std::vector<Leaf> stack;
+  stack.push_back({{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}, 0});
+  while (!stack.empty()) {
+    const Leaf leaf = stack.back();
+    stack.pop_back();
+    ++res.leaves;
+    Vec2 q[3];
+    Vec3 X[3];
+    for (int i = 0; i < 3; ++i) {
+      const Vec3& b = leaf.b[i];
+      q[i] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
+      X[i] = b.x * T[0] + b.y * T[1] + b.z * T[2];
+    }
+    const double lin = composed_bound(P, q, X, s);
+    double m2s = lin, s2m = lin;
+    if (lin > tau) {
+      // Mesh->surface: the leaf's corners matched to their projections on the surface.
+      Vec2 qp[3];
+      for (int i = 0; i < 3; ++i) {
+        qp[i] = project(*P.patch, X[i], q[i]);
+        const double r = glm::length(X[i] - eval(*P.patch, qp[i]));
+        if (r > res.m2s_est) {
+          res.m2s_est = r;
+          res.m2s_point = X[i];
+          res.m2s_seed = qp[i];
+        }
+      }
+      m2s = std::min(lin, composed_bound(P, qp, X, s));
+      // Surface->mesh: the leaf's surface corners matched to their closest points on the triangle.
+      Vec3 Y[3];
+      for (int i = 0; i < 3; ++i) {
+        const Vec3 sp = eval(*P.patch, q[i]);
+        Y[i] = closest_on_triangle(sp, T[0], T[1], T[2]);
+        const double r = glm::length(sp - Y[i]);
+        if (r > res.s2m_est) {
+          res.s2m_est = r;
+          res.s2m_uv = q[i];
+        }
+      }
+      s2m = std::min(lin, composed_bound(P, q, Y, s));
+    }
+    if (std::max(m2s, s2m) > tau && leaf.depth < max_depth) {
+      const Vec3 m01 = 0.5 * (leaf.b[0] + leaf.b[1]), m12 = 0.5 * (leaf.b[1] + leaf.b[2]),
+                 m20 = 0.5 * (leaf.b[2] + leaf.b[0]);
+      const int d = leaf.depth + 1;
+      stack.push_back({{leaf.b[0], m01, m20}, d});
+      stack.push_back({{m01, leaf.b[1], m12}, d});
+      stack.push_back({{m20, m12, leaf.b[2]}, d});
+      stack.push_back({{m12, m20, m01}, d});
+      continue;
+    }
+    if (std::max(m2s, s2m) > tau) res.exhausted = true;
+    res.m2s = std::max(res.m2s, m2s);
+    res.s2m = std::max(res.s2m, s2m);
+  }
+  return res;
+}
+
+// Coverage of every patch domain by the triangles' (u, v): all corners inside [0, 1]^2, every uv
+// triangle positively oriented, and the areas summing to 1 per patch (relative tolerance 1e-9).
+bool check_coverage(const Model& model, const Tessellation& mesh, std::string& note) {
+  std::vector<long double> area(model.patches.size(), 0.0L);
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const auto& q = mesh.triangle_uv[t];
+    for (const Vec2& p : q) {
+      if (!(p.x >= 0.0 && p.x <= 1.0 && p.y >= 0.0 && p.y <= 1.0)) {
+        note = "triangle " + std::to_string(t) + " has (u, v) outside [0, 1]^2";
+        return false;
+      }
+    }
+    const long double a = 0.5L * ((static_cast<long double>(q[1].x) - q[0].x) * (static_cast<long double>(q[2].y) - q[0].y) -
+                                  (static_cast<long double>(q[2].x) - q[0].x) * (static_cast<long double>(q[1].y) - q[0].y));
+    if (a < 0.0L) {
+      note = "triangle " + std::to_string(t) + " is reversed in (u, v)";
+      return false;
+    }
+    area[mesh.triangle_patch[t]] += a;
+  }
+  for (size_t p = 0; p < area.size(); ++p) {
+    if (std::abs(area[p] - 1.0L) > 1e-9L) {
+      note = "the triangles cover " + std::to_string(static_cast<double>(area[p])) + " of patch " + std::to_string(p) +
+             "'s (u, v) domain instead of 1";
+      return false;
+    }
+  }
+  return true;
+}
+
+// One subdivision of a patch for the branch-and-bound: homogeneous control points relative to x.
+struct Node {
+  std::vector<H> h;
+  int n = 0, m = 0, depth = 0;
+  double lb = 0.0;
+};
+
+// Lower bound of the distance from the origin to the convex hull of the node's control points:
+// the larger of the box distance and a slab distance along the node's approximate normal, minus
+// the node's rounding allowance.
+double node_lower(const Node& node, double scale) {
+  Vec3 lo(kInf), hi(-kInf);
+  std::vector<Vec3> pts(node.h.size());
+  for (size_t k = 0; k < node.h.size(); ++k) {
+    pts[k] = Vec3(node.h[k][0], node.h[k][1], node.h[k][2]) / node.h[k][3];
+    lo = glm::min(lo, pts[k]);
+    hi = glm::max(hi, pts[k]);
+  }
+  const Vec3 gap = glm::max(glm::max(lo, -hi), Vec3(0.0));
+  double lb = glm::length(gap);
+  const int n = node.n, m = node.m;
+  const Vec3 p00 = pts[0], p0m = pts[static_cast<size_t>(m)], pn0 = pts[static_cast<size_t>(n * (m + 1))],
+             pnm = pts.back();
+  Vec3 normal = glm::cross(pnm - p00, pn0 - p0m);
+  const double len = glm::length(normal);
+  if (len > 0.0) {
+    normal /= len;
+    double smin = kInf, smax = -kInf;
+    for (const Vec3& p : pts) {
+      const double sdot = glm::dot(normal, p);
+      smin = std::min(smin, sdot);
+      smax = std::max(smax, sdot);
+    }
+    const double slab = smin > 0.0 ? smin : (smax < 0.0 ? -smax : 0.0);
+    lb = std::max(lb, slab);
+  }
+  // Each de Casteljau split level adds at most 3u |coordinates| of error; the normal need not be
+  // exact (any unit vector gives a valid slab), but its rounding is absorbed here too.
+  const double err = (3.0 * node.depth + 16.0) * kUnit * scale * 4.0;
+  return std::max(0.0, lb - err);
+}
+
+void split(const Node& node, bool along_u, Node& left, Node& right) {
+  const int n = node.n, m = node.m;
+  left = right = node;
+  ++left.depth;
+  ++right.depth;
+  const int count = along_u ? n : m;
+  const int lines = along_u ? m + 1 : n + 1;
+  std::vector<H> w(static_cast<size_t>(count + 1));
+  for (int line = 0; line < lines; ++line) {
+    auto idx = [&](int k) { return static_cast<size_t>(along_u ? k * (m + 1) + line : line * (m + 1) + k); };
+    for (int k = 0; k <= count; ++k) w[k] = node.h[idx(k)];
+    left.h[idx(0)] = w[0];
+    right.h[idx(count)] = w[count];
+    for (int level = 1; level <= count; ++level) {
+      for (int k = 0; k <= count - level; ++k) w[k] = lerp(w[k], w[k + 1], 0.5);
+      left.h[idx(level)] = w[0];
+      right.h[idx(count - level)] = w[count - level];
+    }
+  }
+}
+
+}  // namespace
+
+double affine_error_bound(const BezierPatch& patch, const Vec2 q[3], const Vec3 X[3]) {
+  const PatchData P = make_patch_data(patch);
+  Scratch s;
+  return composed_bound(P, q, X, s);
+}
+
+double certified_distance_lower(const Model& model, const Vec3& x, double target, int node_budget) {
+  if (!(target > 0.0)) return 0.0;
+  std::vector<Node> stack;
+  double scale = std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)});
+  for (const BezierPatch& patch : model.patches) {
+    Node node;
+    node.n = patch.degree_u;
+    node.m = patch.degree_v;
+    for (int i = 0; i <= node.n; ++i) {
+      for (int j = 0; j <= node.m; ++j) {
+        const double w = patch.weight(i, j);
+        const Vec3 p = patch.at(i, j) - x;
+        node.h.push_back({w * p.x, w * p.y, w * p.z, w});
+        scale = std::max({scale, std::abs(patch.at(i, j).x), std::abs(patch.at(i, j).y), std::abs(patch.at(i, j).z)});
+      }
+    }
+    stack.push_back(std::move(node));
+  }
+  double result = target;
+  int spent = 0;
+  while (!stack.empty()) {
+    Node node = std::move(stack.back());
+    stack.pop_back();
+    node.lb = node_lower(node, scale);
+    if (node.lb >= target) continue;
+    // A corner of the node is a surface point: the distance is at most its length.
+    for (const size_t k : {size_t(0), size_t(node.m), node.h.size() - 1 - size_t(node.m), node.h.size() - 1}) {
+      const H& c = node.h[k];
+      const double r = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) / c[3];
+      if (r * (1.0 - 1e-3) < target) target = r * (1.0 - 1e-3);  // aim just below a known distance
+    }
+    result = std::min(result, target);
+    if (node.lb >= target) continue;
+    if (++spent > node_budget || node.depth > 80) {
+      result = std::min(result, node.lb);
+      for (Node& rest : stack) result = std::min(result, node_lower(rest, scale));
+      return result;
+    }
+    // Split along the parameter direction whose control polygon is longer.
+    double lu = 0.0, lv = 0.0;
+    for (int i = 0; i <= node.n; ++i) {
+      for (int j = 0; j <= node.m; ++j) {
+        const H& a = node.h[static_cast<size_t>(i * (node.m + 1) + j)];
+        const Vec3 pa = Vec3(a[0], a[1], a[2]) / a[3];
+        if (i < node.n) {
+          const H& b = node.h[static_cast<size_t>((i + 1) * (node.m + 1) + j)];
+          lu = std::max(lu, glm::length(Vec3(b[0], b[1], b[2]) / b[3] - pa));
+        }
+        if (j < node.m) {
+          const H& b = node.h[static_cast<size_t>(i * (node.m + 1) + j + 1)];
+          lv = std::max(lv, glm::length(Vec3(b[0], b[1], b[2]) / b[3] - pa));
+        }
+      }
+    }
+    Node left, right;
+    split(node, lu * node.n >= lv * node.m, left, right);
+    stack.push_back(std::move(left));
+    stack.push_back(std::move(right));
+  }
+  return std::min(result, target);
+}
+
+namespace {
+
+// Lower bounds from the worst candidates of each direction.
+void certify_lowers(const Model& model, const Tessellation& mesh, const std::vector<TriangleResult>& results,
+                    const CertifyOptions& options, DistanceReport& report) {
+  const size_t k = std::min<size_t>(static_cast<size_t>(std::max(options.lower_candidates, 1)), results.size());
+  std::vector<size_t> order(results.size());
+  std::iota(order.begin(), order.end(), size_t(0));
+  // Mesh->surface.
+  std::partial_sort(order.begin(), order.begin() + static_cast<long>(k), order.end(),
+                    [&](size_t a, size_t b) { return results[a].m2s_est > results[b].m2s_est; });
+  std::vector<double> low(k, 0.0);
+  tbb::parallel_for(size_t(0), k, [&](size_t i) {
+    const TriangleResult& r = results[order[i]];
+    low[i] = certified_distance_lower(model, r.m2s_point, r.m2s_est * 0.995, options.lower_node_budget);
+  });
+  for (size_t i = 0; i < k; ++i) {
+    if (low[i] > report.mesh_to_surface.lower) {
+      report.mesh_to_surface.lower = low[i];
+      report.mesh_to_surface.witness = results[order[i]].m2s_point;
+      report.mesh_to_surface.witness_patch = mesh.triangle_patch.empty() ? -1 : mesh.triangle_patch[order[i]];
+    }
+  }
+  // Surface->mesh: exact surface points (evaluation error bounded below) against the whole mesh.
+  const detail::MeshDistance dist(mesh);
+  std::partial_sort(order.begin(), order.begin() + static_cast<long>(k), order.end(),
+                    [&](size_t a, size_t b) { return results[a].s2m_est > results[b].s2m_est; });
+  std::vector<Vec3> points(k);
+  tbb::parallel_for(size_t(0), k, [&](size_t i) {
+    const size_t t = order[i];
+    const BezierPatch& patch = model.patches[mesh.triangle_patch[t]];
+    const Vec3 p = eval(patch, results[t].s2m_uv);
+    points[i] = p;
+    const PatchData P = make_patch_data(patch);
+    const double eval_err = 4.0 * (P.n + P.m + 2) * kUnit * (P.hmag / P.wmin + glm::length(P.origin)) * P.wmax / P.wmin;
+    low[i] = std::max(0.0, dist.distance(p) - dist.rounding_bound(p) - eval_err);
+  });
+  for (size_t i = 0; i < k; ++i) {
+    if (low[i] > report.surface_to_mesh.lower) {
+      report.surface_to_mesh.lower = low[i];
+      report.surface_to_mesh.witness = points[i];
+      report.surface_to_mesh.witness_patch = mesh.triangle_patch[order[i]];
+    }
+  }
+}
+
+}  // namespace
+
+DistanceReport certify_distance(const Model& model, const Tessellation& mesh, const CertifyOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!mesh.has_surface() || mesh.triangle_patch.size() != mesh.triangles.size() ||
+      mesh.triangle_uv.size() != mesh.triangles.size()) {
+    throw InputError("certify_distance: the mesh carries no per-triangle (patch, u, v); use certify_external");
+  }
+  for (uint32_t p : mesh.triangle_patch) {
+    if (p >= model.patches.size()) throw InputError("certify_distance: a triangle refers to patch " + std::to_string(p) +
+                                                    " but the model has " + std::to_string(model.patches.size()));
+  }
+  DistanceReport report;
+  report.triangle_upper.assign(mesh.triangles.size(), 0.0);
+  if (mesh.triangles.empty()) {
+    report.coverage_note = "the mesh has no triangles";
+    report.seconds = 0.0;
+    return report;
+  }
+  std::vector<PatchData> pd;
+  pd.reserve(model.patches.size());
+  for (const BezierPatch& p : model.patches) pd.push_back(make_patch_data(p));
+  auto corners = [&](size_t t) {
+    const Triangle& tri = mesh.triangles[t];
+    return std::array<Vec3, 3>{mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
+  };
+  // Pass 1: an estimate of the distance (projection residuals at centroids and edge midpoints),
+  // which sets the refinement target.
+  const size_t count = mesh.triangles.size();
+  std::vector<double> est(count, 0.0);
+  std::vector<Vec3> est_point(count);
+  std::vector<Vec2> est_uv(count);
+  tbb::parallel_for(size_t(0), count, [&](size_t t) {
+    const auto T = corners(t);
+    const auto& uv = mesh.triangle_uv[t];
+    const BezierPatch& patch = *pd[mesh.triangle_patch[t]].patch;
+    const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
+    for (const Vec3& b : bs) {
+      const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
+      const Vec2 q = project(patch, x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
+      const double e = glm::length(x - eval(patch, q));
+      if (e >= est[t]) {
+        est[t] = e;
+        est_point[t] = x;
+        est_uv[t] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
+      }
+    }
+  });
+  const double estimate = *std::max_element(est.begin(), est.end());
+  const double tau = options.target_ratio * estimate;
+  // Pass 2: refinement.
+  std::vector<TriangleResult> results(count);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 64), [&](const tbb::blocked_range<size_t>& range) {
+    Scratch s;
+    for (size_t t = range.begin(); t != range.end(); ++t) {
+      results[t] = refine_triangle(pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], corners(t), tau, options.max_depth, s);
+      if (results[t].m2s_est < est[t]) {
+        results[t].m2s_est = est[t];
+        results[t].m2s_point = est_point[t];
+      }
+      if (results[t].s2m_est < est[t]) {
+        results[t].s2m_uv = est_uv[t];
+        results[t].s2m_est = est[t];
+      }
+    }
+  });
+  double m2s = 0.0, s2m = 0.0;
+  for (size_t t = 0; t < count; ++t) {
+    m2s = std::max(m2s, results[t].m2s);
+    s2m = std::max(s2m, results[t].s2m);
+    report.triangle_upper[t] = std::max(results[t].m2s, results[t].s2m);
+    report.leaves += results[t].leaves;
+    report.budget_exhausted += results[t].exhausted ? 1 : 0;
+  }
+  // The rounding term at the worst triangle's scale, for the report.
+  {
+    Scratch s;
+    const size_t worst = static_cast<size_t>(std::max_element(report.triangle_upper.begin(), report.triangle_upper.end()) -
+                                             report.triangle_upper.begin());
+    const auto T = corners(worst);
+    const PatchData& P = pd[mesh.triangle_patch[worst]];
+    const Vec2 q[3] = {Vec2(0.0), Vec2(0.0), Vec2(0.0)};
+    const Vec3 X[3] = {T[0], T[1], T[2]};
+    double xmag = 0.0;
+    for (const Vec3& x : X) xmag = std::max(xmag, glm::length(x - P.origin));
+    (void)q;
+    report.rounding = 8.0 * (P.n + P.m + 1 + 4) * kUnit * (P.hmag + P.wmax * xmag) / P.wmin + 4.0 * kUnit * P.lipschitz;
+  }
+  report.coverage_ok = check_coverage(model, mesh, report.coverage_note);
+  report.mesh_to_surface.upper = m2s;
+  report.mesh_to_surface.certified = true;
+  report.surface_to_mesh.upper = report.coverage_ok ? s2m : kInf;
+  report.surface_to_mesh.certified = report.coverage_ok;
+  certify_lowers(model, mesh, results, options, report);
+  report.hausdorff.lower = std::max(report.mesh_to_surface.lower, report.surface_to_mesh.lower);
+  report.hausdorff.upper = std::max(report.mesh_to_surface.upper, report.surface_to_mesh.upper);
+  report.hausdorff.certified = report.mesh_to_surface.certified && report.surface_to_mesh.certified;
+  const bool m2s_wins = report.mesh_to_surface.lower >= report.surface_to_mesh.lower;
+  report.hausdorff.witness = m2s_wins ? report.mesh_to_surface.witness : report.surface_to_mesh.witness;
+  report.hausdorff.witness_patch = m2s_wins ? report.mesh_to_surface.witness_patch : report.surface_to_mesh.witness_patch;
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+}  // namespace sagitta

@@ -1,0 +1,268 @@
+// Mesh topology checks (see mesh_check.hpp). Exact predicates from CGAL decide degeneracy and
+// exact collinearity.
+#include "sagitta/mesh_check.hpp"
+
+#include "sagitta/evaluate.hpp"
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+#include <unordered_set>
+
+namespace sagitta {
+
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+K::Point_3 cgal_point(const Vec3& p) { return K::Point_3(p.x, p.y, p.z); }
+
+struct EdgeUse {
+  uint32_t count = 0;
+  uint32_t forward = 0;    // uses running from the smaller to the larger vertex index
+  uint32_t triangle = 0;   // first triangle using the edge
+};
+
+uint64_t edge_key(uint32_t a, uint32_t b) {
+  return (static_cast<uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+}
+
+// Which side of the unit square both parameter points lie on, or -1.
+int common_side(const Vec2& a, const Vec2& b) {
+  if (a.x == 0.0 && b.x == 0.0) return static_cast<int>(Side::kU0);
+  if (a.x == 1.0 && b.x == 1.0) return static_cast<int>(Side::kU1);
+  if (a.y == 0.0 && b.y == 0.0) return static_cast<int>(Side::kV0);
+  if (a.y == 1.0 && b.y == 1.0) return static_cast<int>(Side::kV1);
+  return -1;
+}
+
+// Free boundary curves of the model, with a distance query for points (dense samples and a
+// bracketing refinement on the curve parameter).
+struct FreeCurves {
+  struct Curve {
+    std::vector<Vec3> points;
+    std::vector<double> weights;
+    std::vector<Vec3> samples;
+  };
+  std::vector<Curve> curves;
+  static constexpr int kSamples = 256;
+
+  FreeCurves(const Topology& topology) {
+    for (const Topology::Edge& e : topology.edges) {
+      if (e.uses.size() != 1) continue;
+      Curve c{e.points, e.weights, {}};
+      for (int k = 0; k <= kSamples; ++k) c.samples.push_back(de_casteljau_curve(c.points, c.weights, double(k) / kSamples));
+      curves.push_back(std::move(c));
+    }
+  }
+  // Index of the free curve nearest to p with its distance (curves.size() when none).
+  std::pair<size_t, double> nearest(const Vec3& p) const {
+    size_t best = curves.size();
+    double best_d = std::numeric_limits<double>::infinity();
+    for (size_t i = 0; i < curves.size(); ++i) {
+      const Curve& c = curves[i];
+      int k_best = 0;
+      double d_best = std::numeric_limits<double>::infinity();
+      for (int k = 0; k <= kSamples; ++k) {
+        const double d = glm::length(c.samples[k] - p);
+        if (d < d_best) {
+          d_best = d;
+          k_best = k;
+        }
+      }
+      double lo = std::max(0.0, (k_best - 1.0) / kSamples), hi = std::min(1.0, (k_best + 1.0) / kSamples);
+      for (int it = 0; it < 80; ++it) {
+        const double m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
+        if (glm::length(de_casteljau_curve(c.points, c.weights, m1) - p) <
+            glm::length(de_casteljau_curve(c.points, c.weights, m2) - p)) {
+          hi = m2;
+        } else {
+          lo = m1;
+        }
+      }
+      d_best = std::min(d_best, glm::length(de_casteljau_curve(c.points, c.weights, 0.5 * (lo + hi)) - p));
+      if (d_best < best_d) {
+        best_d = d_best;
+        best = i;
+      }
+    }
+    return {best, best_d};
+  }
+};
+
+}  // namespace
+
+TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model, const Topology* topology,
+                                   const TopologyOptions& options) {
+  TopologyReport r;
+  r.triangles = mesh.triangles.size();
+  const bool with_uv = mesh.has_surface() && model && topology && mesh.triangle_patch.size() == mesh.triangles.size();
+  r.classified_with_uv = with_uv;
+  std::unordered_map<std::string, size_t> listed;
+  auto add = [&](TopologyFinding f) {
+    if (listed[f.kind]++ < options.max_listed) r.findings.push_back(std::move(f));
+  };
+  auto patch_of = [&](size_t t) -> int64_t { return mesh.triangle_patch.size() > t ? mesh.triangle_patch[t] : -1; };
+  auto centroid = [&](const Triangle& t) {
+    return (mesh.positions[t[0]] + mesh.positions[t[1]] + mesh.positions[t[2]]) / 3.0;
+  };
+  for (const Triangle& t : mesh.triangles) {
+    for (uint32_t v : t) {
+      if (v >= mesh.positions.size()) throw InputError("mesh check: a triangle refers to vertex " + std::to_string(v) +
+                                                       " but the mesh has " + std::to_string(mesh.positions.size()));
+    }
+  }
+
+  // Degenerate and duplicated faces.
+  std::unordered_set<std::string> seen_faces;
+  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    const Triangle& t = mesh.triangles[i];
+    const bool same_index = t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
+    if (same_index || CGAL::collinear(cgal_point(mesh.positions[t[0]]), cgal_point(mesh.positions[t[1]]),
+                                      cgal_point(mesh.positions[t[2]]))) {
+      ++r.degenerate_triangles;
+      add({"degenerate_triangle", centroid(t), patch_of(i), static_cast<int64_t>(i), {t[0], t[1]}});
+    }
+    Triangle s = t;
+    std::sort(s.begin(), s.end());
+    std::string key(reinterpret_cast<const char*>(s.data()), sizeof(s));
+    if (!seen_faces.insert(std::move(key)).second) {
+      ++r.duplicated_faces;
+      add({"duplicated_face", centroid(t), patch_of(i), static_cast<int64_t>(i), {t[0], t[1]}});
+    }
+  }
+
+  // Edge uses.
+  std::unordered_map<uint64_t, EdgeUse> edges;
+  edges.reserve(mesh.triangles.size() * 2);
+  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    const Triangle& t = mesh.triangles[i];
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = t[k], b = t[(k + 1) % 3];
+      if (a == b) continue;
+      EdgeUse& e = edges[edge_key(a, b)];
+      if (e.count == 0) e.triangle = static_cast<uint32_t>(i);
+      ++e.count;
+      if (a < b) ++e.forward;
+    }
+  }
+  r.edges = edges.size();
+  std::unique_ptr<FreeCurves> curves;
+  double boundary_tol = 0.0;
+  if (!with_uv && model && topology) {
+    curves = std::make_unique<FreeCurves>(*topology);
+    boundary_tol = options.boundary_tolerance * model_box(*model).diagonal();
+  }
+  std::vector<std::pair<uint32_t, uint32_t>> open;
+  for (const auto& [key, e] : edges) {
+    const uint32_t a = static_cast<uint32_t>(key >> 32), b = static_cast<uint32_t>(key & 0xffffffffu);
+    const Vec3 mid = 0.5 * (mesh.positions[a] + mesh.positions[b]);
+    if (e.count > 2) {
+      ++r.non_manifold_edges;
+      add({"non_manifold_edge", mid, patch_of(e.triangle), e.triangle, {a, b}});
+    } else if (e.count == 2 && e.forward != 1) {
+      ++r.inconsistent_orientation_edges;
+      add({"inconsistent_orientation_edge", mid, patch_of(e.triangle), e.triangle, {a, b}});
+    } else if (e.count == 1) {
+      ++r.open_edges;
+      open.emplace_back(a, b);
+      bool boundary = false;
+      if (with_uv) {
+        const Triangle& t = mesh.triangles[e.triangle];
+        const auto& uv = mesh.triangle_uv[e.triangle];
+        Vec2 ua{-1.0}, ub{-1.0};
+        for (int k = 0; k < 3; ++k) {
+          if (t[k] == a) ua = uv[k];
+          if (t[k] == b) ub = uv[k];
+        }
+        const int side = common_side(ua, ub);
+        if (side >= 0) {
+          const Topology::SideInfo& info = topology->side(mesh.triangle_patch[e.triangle], static_cast<Side>(side));
+          boundary = info.edge >= 0 && topology->edges[static_cast<size_t>(info.edge)].uses.size() == 1;
+        }
+      } else if (curves && !curves->curves.empty()) {
+        const auto na = curves->nearest(mesh.positions[a]);
+        const auto nb = curves->nearest(mesh.positions[b]);
+        const auto nm = curves->nearest(mid);
+        boundary = na.first == nb.first && na.second <= boundary_tol && nb.second <= boundary_tol &&
+                   nm.second <= boundary_tol + 1e-3 * glm::length(mesh.positions[a] - mesh.positions[b]);
+      }
+      if (boundary) {
+        ++r.model_boundary_edges;
+        add({"model_boundary_edge", mid, patch_of(e.triangle), e.triangle, {a, b}});
+      } else {
+        ++r.crack_edges;
+        add({"crack_edge", mid, patch_of(e.triangle), e.triangle, {a, b}});
+      }
+    }
+  }
+
+  // T-junctions: a vertex of an open edge strictly inside another open edge. Candidates come from
+  // a uniform grid over the open edges' vertices (cell = mean open-edge length).
+  if (!open.empty()) {
+    std::vector<uint32_t> verts;
+    double mean = 0.0;
+    for (const auto& [a, b] : open) {
+      verts.push_back(a);
+      verts.push_back(b);
+      mean += glm::length(mesh.positions[a] - mesh.positions[b]);
+    }
+    std::sort(verts.begin(), verts.end());
+    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+    mean /= static_cast<double>(open.size());
+    const double cell = mean > 0.0 ? mean : 1.0;
+    auto cell_of = [&](const Vec3& p) {
+      return glm::i64vec3(std::floor(p.x / cell), std::floor(p.y / cell), std::floor(p.z / cell));
+    };
+    auto hash = [](const glm::i64vec3& c) {
+      return static_cast<uint64_t>(c.x * 73856093LL) ^ static_cast<uint64_t>(c.y * 19349663LL) ^
+             static_cast<uint64_t>(c.z * 83492791LL);
+    };
+    std::unordered_map<uint64_t, std::vector<uint32_t>> grid;
+    for (uint32_t v : verts) grid[hash(cell_of(mesh.positions[v]))].push_back(v);
+    std::unordered_set<uint32_t> junctions;
+    for (const auto& [a, b] : open) {
+      const Vec3 pa = mesh.positions[a], pb = mesh.positions[b];
+      const Vec3 ab = pb - pa;
+      const double len2 = glm::dot(ab, ab);
+      if (!(len2 > 0.0)) continue;
+      const double len = std::sqrt(len2), tol = options.t_junction_tolerance * len;
+      const glm::i64vec3 lo = cell_of(glm::min(pa, pb) - Vec3(tol)), hi = cell_of(glm::max(pa, pb) + Vec3(tol));
+      const long long cells = (hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1);
+      if (cells > 4096) continue;  // an edge far longer than the mean; skipped (documented limit)
+      for (int64_t x = lo.x; x <= hi.x; ++x) {
+        for (int64_t y = lo.y; y <= hi.y; ++y) {
+          for (int64_t z = lo.z; z <= hi.z; ++z) {
+            const auto it = grid.find(hash({x, y, z}));
+            if (it == grid.end()) continue;
+            for (uint32_t v : it->second) {
+              if (v == a || v == b || junctions.count(v)) continue;
+              const Vec3 p = mesh.positions[v];
+              if (p == pa || p == pb) continue;
+              bool inside = false;
+              const K::Point_3 ca = cgal_point(pa), cb = cgal_point(pb), cp = cgal_point(p);
+              if (CGAL::collinear(ca, cp, cb)) {
+                inside = CGAL::collinear_are_strictly_ordered_along_line(ca, cp, cb);
+              } else {
+                const double t = glm::dot(p - pa, ab) / len2;
+                inside = t * len > tol && (1.0 - t) * len > tol && glm::length(p - (pa + t * ab)) <= tol;
+              }
+              if (inside) {
+                junctions.insert(v);
+                const auto e = edges.find(edge_key(a, b));
+                add({"t_junction", p, patch_of(e->second.triangle), e->second.triangle, {v, -1}});
+              }
+            }
+          }
+        }
+      }
+    }
+    r.t_junctions = junctions.size();
+  }
+  return r;
+}
+
+}  // namespace sagitta

@@ -1,0 +1,30 @@
+// Internal: distance from points to a triangle mesh through a CGAL AABB tree (CGAL stays in
+// mesh_distance.cpp). Queries are thread-safe after construction.
+#pragma once
+
+#include "sagitta/tessellation.hpp"
+
+#include <memory>
+
+namespace sagitta::detail {
+
+class MeshDistance {
+ public:
+  explicit MeshDistance(const Tessellation& mesh);
+  ~MeshDistance();
+  MeshDistance(const MeshDistance&) = delete;
+  MeshDistance& operator=(const MeshDistance&) = delete;
+
+  // Closest point on the mesh and the distance to it, as computed in double by CGAL (Epick).
+  // The rounding of this value is bounded by rounding_bound(p).
+  double distance(const Vec3& p, Vec3* closest = nullptr) const;
+  // A generous bound on |computed distance - true distance| for a query at p.
+  double rounding_bound(const Vec3& p) const;
+  bool empty() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace sagitta::detail
