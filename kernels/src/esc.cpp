@@ -45,6 +45,41 @@ inline bool passes(const Vec3& net, const Vec3& surface, double rho) {
   return rho <= 0.0 || glm::length(net - surface) > rho;
 }
 
+// Decides the P - 1 candidates of one coarse edge from its surface points S[0..P] (ends included)
+// and the control points A, B at its ends; ins[s] = 1 inserts candidate s (1..P-1).
+// Paper mode: the distance test at every candidate, net point A + (s / P)(B - A).
+// Per-edge levels: nothing when the paper's test inserts nothing; else the smallest level l in
+// 1..P-1 whose nested set K_l (K_l = K_{l-1} plus round(t P / (l + 1)), t = 1..l) leaves every
+// other candidate within rho of the polyline through the inserted surface points.
+void decide_edge(const Vec3* S, const Vec3& A, const Vec3& B, int P, double rho, bool per_edge, uint8_t* ins) {
+  bool any = false;
+  for (int s = 1; s < P; ++s) {
+    const double t = static_cast<double>(s) / P;
+    ins[s] = passes(A + t * (B - A), S[s], rho) ? 1 : 0;
+    any = any || ins[s];
+  }
+  if (!per_edge || rho <= 0.0 || !any) return;
+  uint8_t set[kMaxEscLevel + 2] = {};
+  set[0] = set[P] = 1;
+  for (int level = 1; level < P; ++level) {
+    for (int t = 1; t <= level; ++t) set[(2 * t * P + level + 1) / (2 * (level + 1))] = 1;
+    bool ok = true;
+    int lo = 0;
+    for (int s = 1; s < P && ok; ++s) {
+      if (set[s]) {
+        lo = s;
+        continue;
+      }
+      int hi = s + 1;
+      while (!set[hi]) ++hi;
+      const double w = static_cast<double>(s - lo) / (hi - lo);
+      ok = glm::length(S[lo] + w * (S[hi] - S[lo]) - S[s]) <= rho;
+    }
+    if (ok) break;
+  }
+  for (int s = 1; s < P; ++s) ins[s] = set[s];
+}
+
 struct Node {
   uint32_t id;
   int a, b;    // lattice point (a VV keeps its own lattice point, in another row)
@@ -101,14 +136,13 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
   tbb::parallel_for(size_t{0}, topology.edges.size(), [&](size_t e) {
     const Topology::Edge& edge = topology.edges[e];
     const int n = layout.edge_segments[e];
-    for (int k = 1; k < n; ++k) {
-      if (k % P == 0) continue;
-      const int seg = k / P;
-      const double t = static_cast<double>(k % P) / P;
-      const Vec3 net = edge.points[static_cast<size_t>(seg)] +
-                       t * (edge.points[static_cast<size_t>(seg + 1)] - edge.points[static_cast<size_t>(seg)]);
-      const Vec3 surface = de_casteljau_curve(edge.points, edge.weights, static_cast<double>(k) / n);
-      edge_insert[edge_offset[e] + static_cast<uint64_t>(k)] = passes(net, surface, rho) ? 1 : 0;
+    Vec3 S[kMaxEscLevel + 2];
+    uint8_t ins[kMaxEscLevel + 2];
+    for (int seg = 0; seg * P < n; ++seg) {
+      for (int s = 0; s <= P; ++s) S[s] = de_casteljau_curve(edge.points, edge.weights, static_cast<double>(seg * P + s) / n);
+      decide_edge(S, edge.points[static_cast<size_t>(seg)], edge.points[static_cast<size_t>(seg + 1)], P, rho,
+                  params.per_edge_levels, ins);
+      for (int s = 1; s < P; ++s) edge_insert[edge_offset[e] + static_cast<uint64_t>(seg * P + s)] = ins[s];
     }
   });
 
@@ -151,29 +185,25 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
 
     const PatchEvaluator eval(patch);
     uint64_t candidates = 0, inserted = 0;
-    for (int a = 1; a < na; ++a) {
-      for (int b = 1; b < mb; ++b) {
-        const int x = a % P, y = b % P, i = a / P, j = b / P;
-        Vec3 net;
-        if (x == 0 && y == 0) {
-          mask[static_cast<size_t>(lat.index(a, b))] = 1;
-          continue;
-        } else if (x == 0) {
-          const double t = static_cast<double>(y) / P;
-          net = patch.at(i, j) + t * (patch.at(i, j + 1) - patch.at(i, j));
-        } else if (y == 0) {
-          const double t = static_cast<double>(x) / P;
-          net = patch.at(i, j) + t * (patch.at(i + 1, j) - patch.at(i, j));
-        } else if (x == y) {
-          const double t = static_cast<double>(x) / P;
-          net = patch.at(i, j) + t * (patch.at(i + 1, j + 1) - patch.at(i, j));
-        } else {
-          continue;  // inside a coarse triangle: decided by its row below
-        }
+    // Coarse edges inside the patch: grid lines u = i/n, v = j/m and the cell diagonals, each
+    // decided once from its own surface points and the control points at its ends.
+    Vec3 S[kMaxEscLevel + 2];
+    uint8_t ins[kMaxEscLevel + 2];
+    auto decide = [&](int a0, int b0, int da, int db, const Vec3& A, const Vec3& B) {
+      for (int s = 0; s <= P; ++s) S[s] = eval.position(lat.u(a0 + s * da), lat.v(b0 + s * db));
+      decide_edge(S, A, B, P, rho, params.per_edge_levels, ins);
+      for (int s = 1; s < P; ++s) {
+        mask[static_cast<size_t>(lat.index(a0 + s * da, b0 + s * db))] = ins[s];
         ++candidates;
-        const bool ins = passes(net, eval.position(lat.u(a), lat.v(b)), rho);
-        inserted += ins ? 1 : 0;
-        mask[static_cast<size_t>(lat.index(a, b))] = ins ? 1 : 0;
+        inserted += ins[s];
+      }
+    };
+    for (int i = 0; i < lat.n; ++i) {
+      for (int j = 0; j < lat.m; ++j) {
+        if (i > 0) decide(i * P, j * P, 0, 1, patch.at(i, j), patch.at(i, j + 1));
+        if (j > 0) decide(i * P, j * P, 1, 0, patch.at(i, j), patch.at(i + 1, j));
+        decide(i * P, j * P, 1, 1, patch.at(i, j), patch.at(i + 1, j + 1));
+        if (i > 0 && j > 0) mask[static_cast<size_t>(lat.index(i * P, j * P))] = 1;
       }
     }
     // An inserted edge vertex inserts its whole row inside the coarse triangle.

@@ -21,10 +21,11 @@
 namespace sagitta {
 namespace {
 
-Tessellation run(const Model& model, int level, double rho, EscStats* stats = nullptr) {
+Tessellation run(const Model& model, int level, double rho, EscStats* stats = nullptr, bool per_edge = false) {
   EscParams params;
   params.level = level;
   params.threshold = rho;
+  params.per_edge_levels = per_edge;
   return tessellate_esc(model, build_topology(model), params, stats);
 }
 
@@ -192,26 +193,29 @@ TEST(Esc, TriangleCountNeverIncreasesWithThreshold) {
   const std::string path = test::shared_data("teacup.bpt");
   if (std::filesystem::exists(path)) models.push_back(io::read_bpt(path));
   for (const Model& model : models) {
+   for (bool per_edge : {false, true}) {
     const double d = model_box(model).diagonal();
     size_t previous = SIZE_MAX;
     uint64_t previous_inserted = UINT64_MAX;
     for (int s = 0; s <= 60; ++s) {
       const double rho = s == 0 ? 0.0 : d * std::pow(10.0, -6.0 + 6.5 * s / 60.0);
       EscStats stats;
-      const Tessellation mesh = run(model, 3, rho, &stats);
-      EXPECT_LE(mesh.triangles.size(), previous) << model.name << " rho=" << rho;
+      const Tessellation mesh = run(model, 3, rho, &stats, per_edge);
+      EXPECT_LE(mesh.triangles.size(), previous) << model.name << " rho=" << rho << " per_edge=" << per_edge;
       EXPECT_LE(stats.inserted_vertices, previous_inserted);
       previous = mesh.triangles.size();
       previous_inserted = stats.inserted_vertices;
     }
     EXPECT_EQ(previous, esc_full_triangle_count(model, 0));  // beyond the model: the coarse mesh
+   }
   }
 }
 
 void expect_closed(const Model& model, long euler) {
   for (int level : {1, 2, 3, 5}) {
     for (double rho : sweep(model)) {
-      const Tessellation mesh = run(model, level, rho);
+     for (bool per_edge : {false, true}) {
+      const Tessellation mesh = run(model, level, rho, nullptr, per_edge);
       const test::MeshCounts c = test::count_topology(mesh);
       EXPECT_EQ(c.open_edges, 0u) << model.name << " L=" << level << " rho=" << rho;
       EXPECT_EQ(c.nonmanifold_edges, 0u);
@@ -222,6 +226,7 @@ void expect_closed(const Model& model, long euler) {
       if (level <= 3) {
         EXPECT_EQ(count_t_junctions(mesh), 0u) << model.name << " L=" << level << " rho=" << rho;
       }
+     }
     }
   }
 }
@@ -238,7 +243,7 @@ TEST(Esc, MixedDegreePatchesTileTheirDomain) {
     model.patches = {fixtures::random_patch(du, dv, seed, 1.0, Vec3(0.0), seed % 3 == 0 ? 0.5 : 0.0, seed % 3 == 0 ? 2.0 : 0.0)};
     for (int level : {2, 3, 6}) {
       for (double rho : sweep(model, 1.6)) {
-        const Tessellation mesh = run(model, level, rho);
+        const Tessellation mesh = run(model, level, rho, nullptr, seed % 2 == 0);
         EXPECT_EQ(check_parameter_tiling(mesh, 1), 0u) << "seed " << seed << " L=" << level << " rho=" << rho;
         std::map<std::pair<uint32_t, uint32_t>, int> count;
         std::map<std::pair<uint32_t, uint32_t>, std::pair<Vec2, Vec2>> uv;
@@ -394,6 +399,25 @@ TEST(Esc, SameOutputForAnyThreadCount) {
   EXPECT_EQ(many.strips, single.strips);
   ASSERT_EQ(many.positions.size(), single.positions.size());
   for (size_t v = 0; v < many.positions.size(); ++v) EXPECT_EQ(many.positions[v], single.positions[v]);
+}
+
+TEST(Esc, PerEdgeLevelsRefineOnlyWhereThePaperTestDoes) {
+  // Per-edge mode never inserts on an edge the paper's test leaves empty, inserts all at rho = 0,
+  // and is the coarse mesh beyond the model.
+  const Model model = fixtures::rational_torus();
+  const double d = model_box(model).diagonal();
+  EscStats paper, per_edge;
+  for (double rho : sweep(model)) {
+    run(model, 3, rho, &paper, false);
+    const Tessellation mesh = run(model, 3, rho, &per_edge, true);
+    if (rho == 0.0) {
+      EXPECT_EQ(mesh.triangles.size(), esc_full_triangle_count(model, 3));
+    }
+    if (paper.inserted_vertices == 0) {
+      EXPECT_EQ(per_edge.inserted_vertices, 0u);
+    }
+  }
+  EXPECT_EQ(run(model, 3, 2.0 * d, nullptr, true).triangles.size(), esc_full_triangle_count(model, 0));
 }
 
 TEST(Esc, RejectsBadParameters) {

@@ -16,6 +16,10 @@ inline constexpr int kMaxEscLevel = 15;
 struct EscParams {
   int level = 3;           // pattern level L: L + 1 segments per coarse edge, 0..kMaxEscLevel
   double threshold = 0.0;  // rho >= 0; a candidate is inserted when |net - surface| > rho; rho == 0 inserts all
+  // Beyond the paper: an edge that the test refines takes the smallest level l in 1..L whose
+  // (nested) vertices keep the edge's polyline within rho of the surface at all L candidates,
+  // instead of inserting exactly the candidates that failed. See docs/ESC.md.
+  bool per_edge_levels = false;
   bool normals = true;
   bool surface_data = true;  // fill surface_points, triangle_patch, triangle_uv (needed to validate)
 };
