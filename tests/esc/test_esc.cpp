@@ -5,6 +5,7 @@
 #include "sagitta/evaluate.hpp"
 #include "sagitta/fixtures.hpp"
 #include "sagitta/io/model_io.hpp"
+#include "sagitta/uniform.hpp"
 #include "test_support.hpp"
 
 #include <glm/geometric.hpp>
@@ -150,6 +151,32 @@ TEST(Esc, FullPatternCounts) {
     EXPECT_EQ(full.degenerate_triangles, 0u);
     const Tessellation coarse = run(model, level, 1e6);
     EXPECT_EQ(coarse.triangles.size(), 2 * cells) << "L=" << level;
+  }
+}
+
+TEST(Esc, ThresholdZeroIsTheUniformGrid) {
+  // At rho = 0 the pattern of a degree (n, n) patch is the uniform grid with n (L + 1) segments and
+  // the same diagonals: compare the triangles as position triples (independent of vertex numbering).
+  for (const Model& model : {fixtures::pillow_box(), fixtures::rational_torus()}) {
+    const int n = model.patches[0].degree_u;
+    UniformParams up;
+    up.segments = n * 4;
+    const Tessellation uni = tessellate_uniform(model, build_topology(model), up);
+    const Tessellation esc = run(model, 3, 0.0);
+    auto as_positions = [](const Tessellation& m) {
+      std::multiset<std::array<std::array<double, 3>, 3>> out;
+      for (const Triangle& t : m.triangles) {
+        std::array<std::array<double, 3>, 3> p;
+        for (int k = 0; k < 3; ++k) {
+          const Vec3& x = m.positions[t[static_cast<size_t>(k)]];
+          p[static_cast<size_t>(k)] = {x.x, x.y, x.z};
+        }
+        std::rotate(p.begin(), std::min_element(p.begin(), p.end()), p.end());
+        out.insert(p);
+      }
+      return out;
+    };
+    EXPECT_EQ(as_positions(esc), as_positions(uni)) << model.name;
   }
 }
 
