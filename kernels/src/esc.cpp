@@ -124,10 +124,16 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
   if (topology.sides.size() != np * 4) throw InputError("internal: the topology does not belong to this model");
 
   // 1. Patch sides: one decision per sample of each unique boundary curve, from that curve alone in
-  // its canonical direction; the surface point is computed exactly as fill_boundary computes the
-  // vertex, and the net point is the canonical control polygon interpolated linearly.
+  // its canonical direction; the surface point is the shared vertex itself (fill_boundary evaluates
+  // the canonical curve at t = k / N), and the net point is the canonical control polygon
+  // interpolated linearly.
   const BoundaryLayout layout = layout_boundary(
       topology, [&](size_t e) { return static_cast<int>(topology.edges[e].points.size() - 1) * P; }, 0);
+  Tessellation full;
+  full.positions.resize(layout.end);
+  if (params.normals) full.normals.resize(layout.end);
+  if (params.surface_data) full.surface_points.resize(layout.end);
+  fill_boundary(model, topology, layout, full);
   std::vector<uint64_t> edge_offset(topology.edges.size() + 1, 0);
   for (size_t e = 0; e < topology.edges.size(); ++e) {
     edge_offset[e + 1] = edge_offset[e] + static_cast<uint64_t>(layout.edge_segments[e]) + 1;
@@ -139,7 +145,10 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
     Vec3 S[kMaxEscLevel + 2];
     uint8_t ins[kMaxEscLevel + 2];
     for (int seg = 0; seg * P < n; ++seg) {
-      for (int s = 0; s <= P; ++s) S[s] = de_casteljau_curve(edge.points, edge.weights, static_cast<double>(seg * P + s) / n);
+      for (int s = 0; s <= P; ++s) {
+        const int k = seg * P + s;
+        S[s] = k == 0 ? edge.points.front() : k == n ? edge.points.back() : full.positions[layout.edge_base[e] + static_cast<uint32_t>(k - 1)];
+      }
       decide_edge(S, edge.points[static_cast<size_t>(seg)], edge.points[static_cast<size_t>(seg + 1)], P, rho,
                   params.per_edge_levels, ins);
       for (int s = 1; s < P; ++s) edge_insert[edge_offset[e] + static_cast<uint64_t>(seg * P + s)] = ins[s];
@@ -259,11 +268,9 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
   for (size_t p = 0; p < np; ++p) interior_base[p + 1] = interior_base[p] + interior_count[p];
   if (interior_base[np] > UINT32_MAX) throw InputError("the tessellation needs more than 2^32 vertices; lower the level");
 
-  Tessellation full;
   full.positions.resize(interior_base[np]);
   if (params.normals) full.normals.resize(full.positions.size());
   if (params.surface_data) full.surface_points.resize(full.positions.size());
-  fill_boundary(model, topology, layout, full);
 
   // 3. Per patch: vertex ids, interior evaluation, and the strips of every coarse triangle.
   std::vector<PatchOutput> outputs(np);
@@ -406,12 +413,13 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
   // 4. Assemble in patch order and keep only the vertices some triangle uses (side samples that
   // failed the test were laid out but are not part of the mesh).
   Tessellation result;
-  uint64_t triangles = 0, strips = 0;
-  for (const PatchOutput& o : outputs) {
-    triangles += o.triangles.size();
-    strips += o.strips.size();
-    result.degenerate_triangles += o.degenerate;
+  std::vector<uint64_t> tri_offset(np + 1, 0), strip_offset(np + 1, 0);
+  for (size_t p = 0; p < np; ++p) {
+    tri_offset[p + 1] = tri_offset[p] + outputs[p].triangles.size();
+    strip_offset[p + 1] = strip_offset[p] + outputs[p].strips.size();
+    result.degenerate_triangles += outputs[p].degenerate;
   }
+  const uint64_t triangles = tri_offset[np], strips = strip_offset[np];
   std::vector<uint32_t> remap(full.positions.size(), UINT32_MAX);
   for (const PatchOutput& o : outputs) {
     for (const Triangle& t : o.triangles) {
@@ -430,32 +438,35 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
   result.positions.resize(used);
   if (params.normals) result.normals.resize(used);
   if (params.surface_data) result.surface_points.resize(used);
-  for (size_t id = 0; id < remap.size(); ++id) {
+  tbb::parallel_for(size_t{0}, remap.size(), [&](size_t id) {
     const uint32_t r = remap[id];
-    if (r == UINT32_MAX) continue;
+    if (r == UINT32_MAX) return;
     result.positions[r] = full.positions[id];
     if (params.normals) result.normals[r] = full.normals[id];
     if (params.surface_data) result.surface_points[r] = full.surface_points[id];
-  }
-  result.triangles.reserve(triangles);
-  result.strips.reserve(strips);
+  });
+  result.triangles.resize(triangles);
+  result.strips.resize(strips);
   if (params.surface_data) {
-    result.triangle_patch.reserve(triangles);
-    result.triangle_uv.reserve(triangles);
+    result.triangle_patch.resize(triangles);
+    result.triangle_uv.resize(triangles);
   }
-  for (size_t p = 0; p < np; ++p) {
+  tbb::parallel_for(size_t{0}, np, [&](size_t p) {
     PatchOutput& o = outputs[p];
-    for (const Triangle& t : o.triangles) result.triangles.push_back({remap[t[0]], remap[t[1]], remap[t[2]]});
-    if (params.surface_data) {
-      result.triangle_patch.insert(result.triangle_patch.end(), o.triangles.size(), static_cast<uint32_t>(p));
-      result.triangle_uv.insert(result.triangle_uv.end(), o.uv.begin(), o.uv.end());
+    for (size_t t = 0; t < o.triangles.size(); ++t) {
+      const Triangle& tri = o.triangles[t];
+      result.triangles[tri_offset[p] + t] = {remap[tri[0]], remap[tri[1]], remap[tri[2]]};
+      if (params.surface_data) {
+        result.triangle_patch[tri_offset[p] + t] = static_cast<uint32_t>(p);
+        result.triangle_uv[tri_offset[p] + t] = o.uv[t];
+      }
     }
-    for (std::vector<uint32_t>& s : o.strips) {
-      for (uint32_t& id : s) id = remap[id];
-      result.strips.push_back(std::move(s));
+    for (size_t s = 0; s < o.strips.size(); ++s) {
+      for (uint32_t& id : o.strips[s]) id = remap[id];
+      result.strips[strip_offset[p] + s] = std::move(o.strips[s]);
     }
     o = PatchOutput();
-  }
+  });
 
   if (stats) {
     uint64_t candidates = 0, inserted = 0;
