@@ -4,6 +4,7 @@
 #include "sagitta/evaluate.hpp"
 
 #include <glm/geometric.hpp>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <cmath>
@@ -91,11 +92,20 @@ inline long orient(const Node& p, const Node& q, const Node& r) {
   return static_cast<long>(q.a - p.a) * (r.b - p.b) - static_cast<long>(q.b - p.b) * (r.a - p.a);
 }
 
+// Vertex ids inside a patch's output before renumbering: side vertices keep their layout id,
+// vertices strictly inside the patch are kLocal | (index in the patch's own vertex arrays).
+constexpr uint32_t kLocal = 0x80000000u;
+
 struct PatchOutput {
+  std::vector<Vec3> positions, normals;  // vertices strictly inside the patch
+  std::vector<SurfacePoint> surface_points;
   std::vector<Triangle> triangles;
   std::vector<std::array<Vec2, 3>> uv;
   std::vector<std::vector<uint32_t>> strips;
   uint64_t degenerate = 0;
+  std::vector<uint32_t> local_id;  // final id minus the patch's base for each own vertex; UINT32_MAX unused
+  uint32_t local_used = 0;
+  std::vector<uint32_t> side_ids;  // side vertex ids its triangles and strips use (with repeats)
 };
 
 }  // namespace
@@ -130,7 +140,7 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
   const BoundaryLayout layout = layout_boundary(
       topology, [&](size_t e) { return static_cast<int>(topology.edges[e].points.size() - 1) * P; }, 0);
   Tessellation full;
-  full.positions.resize(layout.end);
+  full.positions.resize(layout.end);  // side vertices only; patch interiors live in PatchOutput
   if (params.normals) full.normals.resize(layout.end);
   if (params.surface_data) full.surface_points.resize(layout.end);
   fill_boundary(model, topology, layout, full);
@@ -155,22 +165,31 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
     }
   });
 
-  // 2. Per patch: the insertion mask on its lattice (coarse-edge tests, then rows), and the number
-  // of inserted vertices strictly inside the patch.
-  std::vector<Lattice> lattices(np);
-  std::vector<std::vector<uint8_t>> masks(np);
-  std::vector<std::vector<SurfacePointEval>> lattice_evals(np);  // whole lattice, matrix form by rows
-  std::vector<uint64_t> interior_count(np, 0), patch_candidates(np, 0), patch_inserted(np, 0);
+  // 2. Per patch, in one parallel pass: the insertion mask on its lattice (coarse-edge tests, then
+  // rows), the vertices strictly inside the patch (patch-local numbering), and the strips and
+  // triangles of every coarse triangle.
+  std::vector<uint64_t> patch_candidates(np, 0), patch_inserted(np, 0);
+  std::vector<PatchOutput> outputs(np);
+  struct Scratch {
+    std::vector<uint8_t> mask;
+    std::vector<SurfacePointEval> ev;
+    std::vector<uint32_t> ids;
+    std::vector<Node> upper;
+    std::vector<Node> lower;
+    std::vector<uint32_t> strip;
+  };
+  tbb::enumerable_thread_specific<Scratch> scratch;
   tbb::parallel_for(size_t{0}, np, [&](size_t p) {
     const BezierPatch& patch = model.patches[p];
     const uint32_t pid = static_cast<uint32_t>(p);
-    Lattice& lat = lattices[p];
+    Scratch& sc = scratch.local();
+    Lattice lat;
     lat.P = P;
     lat.n = patch.degree_u;
     lat.m = patch.degree_v;
     lat.cols = lat.m * P + 1;
     const int na = lat.n * P, mb = lat.m * P;
-    std::vector<uint8_t>& mask = masks[p];
+    std::vector<uint8_t>& mask = sc.mask;
     mask.assign(static_cast<size_t>((na + 1) * (mb + 1)), 0);
 
     for (Side side : kAllSides) {
@@ -196,7 +215,7 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
     // The surface on the whole lattice, one u-contraction per lattice row (as the uniform scheme):
     // the same numbers PatchEvaluator::evaluate gives, at a fraction of its cost.
     const PatchEvaluator eval(patch);
-    std::vector<SurfacePointEval>& ev = lattice_evals[p];
+    std::vector<SurfacePointEval>& ev = sc.ev;
     ev.resize(mask.size());
     {
       const int du = patch.degree_u, dv = patch.degree_v;
@@ -215,7 +234,7 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
         }
       }
     }
-    uint64_t candidates = 0, inserted = 0;
+    uint64_t n_candidates = 0, n_inserted = 0;
     // Coarse edges inside the patch: grid lines u = i/n, v = j/m and the cell diagonals, each
     // decided once from its own surface points and the control points at its ends.
     Vec3 S[kMaxEscLevel + 2];
@@ -225,8 +244,8 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
       decide_edge(S, A, B, P, rho, params.per_edge_levels, ins);
       for (int s = 1; s < P; ++s) {
         mask[static_cast<size_t>(lat.index(a0 + s * da, b0 + s * db))] = ins[s];
-        ++candidates;
-        inserted += ins[s];
+        ++n_candidates;
+        n_inserted += ins[s];
       }
     };
     for (int i = 0; i < lat.n; ++i) {
@@ -255,32 +274,15 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
         }
       }
     }
-    uint64_t interior = 0;
-    for (int a = 1; a < na; ++a) {
-      for (int b = 1; b < mb; ++b) interior += mask[static_cast<size_t>(lat.index(a, b))];
-    }
-    interior_count[p] = interior;
-    patch_candidates[p] = candidates;
-    patch_inserted[p] = inserted;
-  });
+    patch_candidates[p] = n_candidates;
+    patch_inserted[p] = n_inserted;
 
-  std::vector<uint64_t> interior_base(np + 1, layout.end);
-  for (size_t p = 0; p < np; ++p) interior_base[p + 1] = interior_base[p] + interior_count[p];
-  if (interior_base[np] > UINT32_MAX) throw InputError("the tessellation needs more than 2^32 vertices; lower the level");
-
-  full.positions.resize(interior_base[np]);
-  if (params.normals) full.normals.resize(full.positions.size());
-  if (params.surface_data) full.surface_points.resize(full.positions.size());
-
-  // 3. Per patch: vertex ids, interior evaluation, and the strips of every coarse triangle.
-  std::vector<PatchOutput> outputs(np);
-  tbb::parallel_for(size_t{0}, np, [&](size_t p) {
-    const BezierPatch& patch = model.patches[p];
-    const uint32_t pid = static_cast<uint32_t>(p);
-    const Lattice& lat = lattices[p];
-    const std::vector<uint8_t>& mask = masks[p];
-    const int na = lat.n * P, mb = lat.m * P;
-    std::vector<uint32_t> ids(mask.size(), UINT32_MAX);
+    PatchOutput& out = outputs[p];
+    out.triangles.reserve(static_cast<size_t>(2 * lat.n * lat.m * P * P));
+    if (params.surface_data) out.uv.reserve(out.triangles.capacity());
+    out.strips.reserve(static_cast<size_t>(2 * lat.n * lat.m * P));
+    std::vector<uint32_t>& ids = sc.ids;
+    ids.assign(mask.size(), UINT32_MAX);
     for (int k = 0; k <= mb; ++k) {
       ids[static_cast<size_t>(lat.index(0, k))] = side_vertex(layout, topology, pid, Side::kU0, k);
       ids[static_cast<size_t>(lat.index(na, k))] = side_vertex(layout, topology, pid, Side::kU1, k);
@@ -289,31 +291,27 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
       ids[static_cast<size_t>(lat.index(k, 0))] = side_vertex(layout, topology, pid, Side::kV0, k);
       ids[static_cast<size_t>(lat.index(k, mb))] = side_vertex(layout, topology, pid, Side::kV1, k);
     }
-    const std::vector<SurfacePointEval>& ev = lattice_evals[p];
-    uint64_t next = interior_base[p];
     for (int a = 1; a < na; ++a) {
       for (int b = 1; b < mb; ++b) {
         const size_t s = static_cast<size_t>(lat.index(a, b));
         if (!mask[s]) continue;
-        const uint32_t id = static_cast<uint32_t>(next++);
-        ids[s] = id;
+        ids[s] = kLocal | static_cast<uint32_t>(out.positions.size());
         const double u = lat.u(a), v = lat.v(b);
         const SurfacePointEval& e = ev[s];
-        full.positions[id] = e.position;
+        out.positions.push_back(e.position);
         if (params.normals) {
           const Vec3 cr = glm::cross(e.du, e.dv);
           const double len = glm::length(cr);
-          full.normals[id] = (len > 0.0 && std::isfinite(len)) ? cr / len : surface_normal(patch, u, v);
+          out.normals.push_back((len > 0.0 && std::isfinite(len)) ? cr / len : surface_normal(patch, u, v));
         }
-        if (params.surface_data) full.surface_points[id] = {pid, u, v};
+        if (params.surface_data) out.surface_points.push_back({pid, u, v});
       }
     }
 
-    lattice_evals[p] = std::vector<SurfacePointEval>();
-    PatchOutput& out = outputs[p];
     auto inserted = [&](int a, int b) { return mask[static_cast<size_t>(lat.index(a, b))] != 0; };
-    std::vector<Node> upper, lower;
-    std::vector<uint32_t> strip;
+    std::vector<Node>& upper = sc.upper;
+    std::vector<Node>& lower = sc.lower;
+    std::vector<uint32_t>& strip = sc.strip;
     for (int i = 0; i < lat.n; ++i) {
       for (int j = 0; j < lat.m; ++j) {
         for (int tri = 0; tri < 2; ++tri) {
@@ -408,33 +406,50 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
         }
       }
     }
+    // Which of its vertices the patch uses. A strip vertex is normally used by one of the strip's
+    // triangles; on a patch with collapsed sides it may only appear in collapsed ones, and the
+    // strip still needs a valid id.
+    out.local_id.assign(out.positions.size(), UINT32_MAX);
+    auto mark = [&](uint32_t id) {
+      if (id & kLocal) {
+        out.local_id[id & ~kLocal] = 0;
+      } else {
+        out.side_ids.push_back(id);
+      }
+    };
+    for (const Triangle& t : out.triangles) {
+      for (uint32_t id : t) mark(id);
+    }
+    for (const std::vector<uint32_t>& st : out.strips) {
+      for (uint32_t id : st) mark(id);
+    }
+    for (uint32_t& r : out.local_id) {
+      if (r == 0) r = out.local_used++;
+    }
   });
 
-  // 4. Assemble in patch order and keep only the vertices some triangle uses (side samples that
-  // failed the test were laid out but are not part of the mesh).
+  // 3. Assemble in patch order. Side samples that failed the test were laid out but belong to no
+  // triangle: only used side vertices are kept (first, in layout order), then every patch's own
+  // vertices that a triangle or strip uses.
   Tessellation result;
-  std::vector<uint64_t> tri_offset(np + 1, 0), strip_offset(np + 1, 0);
+  std::vector<uint32_t> remap(layout.end, UINT32_MAX);
+  for (const PatchOutput& o : outputs) {
+    for (uint32_t id : o.side_ids) remap[id] = 0;
+  }
+  uint64_t used = 0;
+  for (uint32_t& r : remap) {
+    if (r == 0) r = static_cast<uint32_t>(used++);
+  }
+  std::vector<uint64_t> tri_offset(np + 1, 0), strip_offset(np + 1, 0), vertex_base(np + 1, used);
   for (size_t p = 0; p < np; ++p) {
+    vertex_base[p + 1] = vertex_base[p] + outputs[p].local_used;
     tri_offset[p + 1] = tri_offset[p] + outputs[p].triangles.size();
     strip_offset[p + 1] = strip_offset[p] + outputs[p].strips.size();
     result.degenerate_triangles += outputs[p].degenerate;
   }
+  used = vertex_base[np];
+  if (used > UINT32_MAX) throw InputError("the tessellation needs more than 2^32 vertices; lower the level");
   const uint64_t triangles = tri_offset[np], strips = strip_offset[np];
-  std::vector<uint32_t> remap(full.positions.size(), UINT32_MAX);
-  for (const PatchOutput& o : outputs) {
-    for (const Triangle& t : o.triangles) {
-      for (uint32_t id : t) remap[id] = 0;
-    }
-    // A strip vertex is normally used by one of the strip's triangles; on a patch with collapsed
-    // sides it may only appear in collapsed ones, and the strip still needs a valid id.
-    for (const std::vector<uint32_t>& s : o.strips) {
-      for (uint32_t id : s) remap[id] = 0;
-    }
-  }
-  uint32_t used = 0;
-  for (uint32_t& r : remap) {
-    if (r == 0) r = used++;
-  }
   result.positions.resize(used);
   if (params.normals) result.normals.resize(used);
   if (params.surface_data) result.surface_points.resize(used);
@@ -453,17 +468,26 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
   }
   tbb::parallel_for(size_t{0}, np, [&](size_t p) {
     PatchOutput& o = outputs[p];
+    const uint32_t base = static_cast<uint32_t>(vertex_base[p]);
+    auto final_id = [&](uint32_t id) { return (id & kLocal) ? base + o.local_id[id & ~kLocal] : remap[id]; };
+    for (size_t v = 0; v < o.local_id.size(); ++v) {
+      if (o.local_id[v] == UINT32_MAX) continue;
+      const uint32_t r = base + o.local_id[v];
+      result.positions[r] = o.positions[v];
+      if (params.normals) result.normals[r] = o.normals[v];
+      if (params.surface_data) result.surface_points[r] = o.surface_points[v];
+    }
     for (size_t t = 0; t < o.triangles.size(); ++t) {
       const Triangle& tri = o.triangles[t];
-      result.triangles[tri_offset[p] + t] = {remap[tri[0]], remap[tri[1]], remap[tri[2]]};
+      result.triangles[tri_offset[p] + t] = {final_id(tri[0]), final_id(tri[1]), final_id(tri[2])};
       if (params.surface_data) {
         result.triangle_patch[tri_offset[p] + t] = static_cast<uint32_t>(p);
         result.triangle_uv[tri_offset[p] + t] = o.uv[t];
       }
     }
-    for (size_t s = 0; s < o.strips.size(); ++s) {
-      for (uint32_t& id : o.strips[s]) id = remap[id];
-      result.strips[strip_offset[p] + s] = std::move(o.strips[s]);
+    for (size_t st = 0; st < o.strips.size(); ++st) {
+      for (uint32_t& id : o.strips[st]) id = final_id(id);
+      result.strips[strip_offset[p] + st] = std::move(o.strips[st]);
     }
     o = PatchOutput();
   });
