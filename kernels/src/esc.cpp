@@ -139,6 +139,7 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
   // interpolated linearly.
   const BoundaryLayout layout = layout_boundary(
       topology, [&](size_t e) { return static_cast<int>(topology.edges[e].points.size() - 1) * P; }, 0);
+  if (layout.end >= kLocal) throw InputError("the tessellation needs more than 2^31 side vertices; lower the level");
   Tessellation full;
   full.positions.resize(layout.end);  // side vertices only; patch interiors live in PatchOutput
   if (params.normals) full.normals.resize(layout.end);
