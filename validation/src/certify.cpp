@@ -12,7 +12,11 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <mutex>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <map>
+#include <tuple>
 #include <numeric>
 #include <vector>
 
@@ -222,21 +226,32 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
   return emax * (1.0 + 4.0 * kUnit) + rounding;
 }
 
-// Gauss-Newton projection of x onto the patch, seeded at q, clamped to the domain. Any result is
-// acceptable to the callers (they only need some surface point), so this never fails.
+// Damped Gauss-Newton projection of x onto the patch, seeded at q, clamped to the domain; a step is
+// accepted only when it brings the point closer (halved otherwise), so the result is never worse
+// than the seed. Any result is acceptable to the callers (they only need some surface point).
 Vec2 project(const BezierPatch& patch, const Vec3& x, Vec2 q) {
-  for (int it = 0; it < 8; ++it) {
-    const SurfacePointEval e = evaluate_with_derivatives(patch, q.x, q.y);
+  SurfacePointEval e = evaluate_with_derivatives(patch, q.x, q.y);
+  double best = glm::length(x - e.position);
+  for (int it = 0; it < 12; ++it) {
     const Vec3 r = x - e.position;
     const double a = glm::dot(e.du, e.du), b = glm::dot(e.du, e.dv), c = glm::dot(e.dv, e.dv);
     const double det = a * c - b * b;
     if (!(det > 1e-300)) break;
     const double ru = glm::dot(e.du, r), rv = glm::dot(e.dv, r);
     Vec2 step((c * ru - b * rv) / det, (a * rv - b * ru) / det);
-    const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
-    const double moved = std::abs(next.x - q.x) + std::abs(next.y - q.y);
-    q = next;
-    if (moved < 1e-15) break;
+    bool moved = false;
+    for (int half = 0; half < 20 && !moved; ++half, step *= 0.5) {
+      const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
+      const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
+      const double d = glm::length(x - ne.position);
+      if (d < best) {
+        best = d;
+        q = next;
+        e = ne;
+        moved = true;
+      }
+    }
+    if (!moved || glm::length(step) < 1e-15) break;
   }
   return q;
 }
@@ -248,8 +263,24 @@ Vec3 eval(const BezierPatch& patch, Vec2 q) {
 
 // Closest point of triangle (a, b, c) to p (Ericson, Real-Time Collision Detection 5.1.5); the
 // result is a convex combination of the corners.
+Vec3 closest_on_segment(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 ab = b - a;
+  const double len2 = glm::dot(ab, ab);
+  if (!(len2 > 0.0)) return a;
+  return a + std::clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) * ab;
+}
+
 Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const Vec3 n = glm::cross(ab, ac);
+  if (!(glm::dot(n, n) > 1e-24 * glm::dot(ab, ab) * glm::dot(ac, ac))) {
+    // (Nearly) degenerate: the closest of the three edges' closest points.
+    Vec3 best = closest_on_segment(p, a, b);
+    for (const Vec3& q : {closest_on_segment(p, b, c), closest_on_segment(p, c, a)}) {
+      if (glm::length(q - p) < glm::length(best - p)) best = q;
+    }
+    return best;
+  }
   const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
   if (d1 <= 0 && d2 <= 0) return a;
   const Vec3 bp = p - b;
@@ -287,7 +318,9 @@ struct Leaf {
 
 // Refines one triangle; `tau` is the level below which a leaf is accepted.
 TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv, const std::array<Vec3, 3>& T,
-                               double tau, int max_depth, Scratch& s) {
+                               double tau, int max_depth, Scratch& s, bool s2m_only = false,
+                               const std::vector<std::array<Vec3, 3>>* s2m_targets = nullptr,
+                               const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest = {}) {
   TriangleResult res;
   std::vector<Leaf> stack;
   stack.push_back({{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}, 0});
@@ -303,8 +336,8 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
       X[i] = b.x * T[0] + b.y * T[1] + b.z * T[2];
     }
     const double lin = composed_bound(P, q, X, s);
-    double m2s = lin, s2m = lin;
-    if (lin > tau) {
+    double m2s = s2m_only ? 0.0 : lin, s2m = lin;
+    if (lin > tau && !s2m_only) {
       // Mesh->surface: the leaf's corners matched to their projections on the surface.
       Vec2 qp[3];
       for (int i = 0; i < 3; ++i) {
@@ -317,18 +350,36 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
         }
       }
       m2s = std::min(lin, composed_bound(P, qp, X, s));
-      // Surface->mesh: the leaf's surface corners matched to their closest points on the triangle.
-      Vec3 Y[3];
+    }
+    if (lin > tau) {
+      // Surface->mesh: the leaf's surface corners matched to their closest points on the triangle
+      // (or on each of the given mesh triangles; all three corners on the same one, so the affine
+      // interpolation stays on the mesh).
+      Vec3 sp[3];
+      for (int i = 0; i < 3; ++i) sp[i] = eval(*P.patch, q[i]);
+      std::vector<std::array<Vec3, 3>> targets = s2m_targets ? *s2m_targets : std::vector<std::array<Vec3, 3>>{T};
+      if (nearest) {
+        // The mesh triangles nearest to each corner (found by the AABB tree) are candidates too.
+        for (int i = 0; i < 3; ++i) {
+          std::array<Vec3, 3> tri;
+          if (nearest(sp[i], tri) && std::find(targets.begin(), targets.end(), tri) == targets.end()) targets.push_back(tri);
+        }
+      }
+      double corner_distance[3] = {kInf, kInf, kInf};
+      for (const auto& target : targets) {
+        Vec3 Y[3];
+        for (int i = 0; i < 3; ++i) {
+          Y[i] = closest_on_triangle(sp[i], target[0], target[1], target[2]);
+          corner_distance[i] = std::min(corner_distance[i], glm::length(sp[i] - Y[i]));
+        }
+        s2m = std::min(s2m, composed_bound(P, q, Y, s));
+      }
       for (int i = 0; i < 3; ++i) {
-        const Vec3 sp = eval(*P.patch, q[i]);
-        Y[i] = closest_on_triangle(sp, T[0], T[1], T[2]);
-        const double r = glm::length(sp - Y[i]);
-        if (r > res.s2m_est) {
-          res.s2m_est = r;
+        if (!s2m_only && corner_distance[i] > res.s2m_est) {  // a candidate for the lower bound
+          res.s2m_est = corner_distance[i];
           res.s2m_uv = q[i];
         }
       }
-      s2m = std::min(lin, composed_bound(P, q, Y, s));
     }
     if (std::max(m2s, s2m) > tau && leaf.depth < max_depth) {
       const Vec3 m01 = 0.5 * (leaf.b[0] + leaf.b[1]), m12 = 0.5 * (leaf.b[1] + leaf.b[2]),
@@ -347,10 +398,126 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
   return res;
 }
 
+// A (u, v) triangle the mesh does not list because its corners collapse to a segment in space
+// (next to a side of the patch that collapses to a point); X are the mesh points at its corners.
+struct Hole {
+  uint32_t patch = 0;
+  std::array<Vec2, 3> uv;
+  std::array<Vec3, 3> X;
+  // The emitted triangles whose edges bound it: both contain its image (the mesh edge), so surface
+  // points over the hole may be matched to any point of either.
+  std::vector<std::array<Vec3, 3>> neighbours;
+};
+
+bool on_side(const Vec2& q, Side side) {
+  switch (side) {
+    case Side::kU0: return q.x == 0.0;
+    case Side::kU1: return q.x == 1.0;
+    case Side::kV0: return q.y == 0.0;
+    case Side::kV1: return q.y == 1.0;
+  }
+  return false;
+}
+
+bool side_collapsed(const BezierPatch& patch, Side side) {
+  for (int k = 1; k <= side_degree(patch, side); ++k) {
+    if (side_point(patch, side, k) != side_point(patch, side, 0)) return false;
+  }
+  return true;
+}
+
+// Reconstructs the degenerate triangles a scheme dropped next to collapsed sides: two (u, v)-open
+// edges of a patch's triangles that meet at an interior point b and end on the same collapsed side
+// at a and a' bound the missing triangle (b, a, a'); its image in space is the mesh edge from b to
+// the collapse point, so every surface point over it is certified against that edge.
+std::vector<Hole> collapsed_side_holes(const Model& model, const Tessellation& mesh) {
+  struct Key {
+    double a[4];
+    bool operator<(const Key& o) const { return std::lexicographical_compare(a, a + 4, o.a, o.a + 4); }
+  };
+  std::vector<Hole> holes;
+  std::vector<std::vector<size_t>> by_patch(model.patches.size());
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) by_patch[mesh.triangle_patch[t]].push_back(t);
+  for (uint32_t p = 0; p < model.patches.size(); ++p) {
+    const BezierPatch& patch = model.patches[p];
+    std::vector<Side> collapsed;
+    for (Side sd : kAllSides) {
+      if (side_collapsed(patch, sd)) collapsed.push_back(sd);
+    }
+    if (collapsed.empty()) continue;
+    std::map<Key, int> uses;
+    auto key = [](Vec2 a, Vec2 b) {
+      if (std::tie(b.x, b.y) < std::tie(a.x, a.y)) std::swap(a, b);
+      return Key{{a.x, a.y, b.x, b.y}};
+    };
+    for (size_t t : by_patch[p]) {
+      for (int k = 0; k < 3; ++k) ++uses[key(mesh.triangle_uv[t][k], mesh.triangle_uv[t][(k + 1) % 3])];
+    }
+    // Interior end point -> (side point uv, mesh position of each end) of open edges touching a side.
+    struct Spoke {
+      Vec2 side_uv;
+      Vec3 side_pos, inner_pos;
+      int side;
+      int64_t triangle;  // the emitted triangle owning the edge, -1 for a domain-boundary segment
+    };
+    std::map<std::pair<double, double>, std::vector<Spoke>> spokes;
+    for (size_t t : by_patch[p]) {
+      for (int k = 0; k < 3; ++k) {
+        const Vec2 a = mesh.triangle_uv[t][k], b = mesh.triangle_uv[t][(k + 1) % 3];
+        if (uses[key(a, b)] != 1) continue;
+        const Vec3 pa = mesh.positions[mesh.triangles[t][k]], pb = mesh.positions[mesh.triangles[t][(k + 1) % 3]];
+        for (Side sd : collapsed) {
+          if (on_side(a, sd) && !on_side(b, sd)) spokes[{b.x, b.y}].push_back({a, pa, pb, int(sd), int64_t(t)});
+          if (on_side(b, sd) && !on_side(a, sd)) spokes[{a.x, a.y}].push_back({b, pb, pa, int(sd), int64_t(t)});
+        }
+      }
+    }
+    for (auto& [inner, list] : spokes) {
+      if (list.size() == 1) {
+        // The missing triangle's third edge runs along the domain boundary to a corner of the side.
+        const Vec2 b(inner.first, inner.second);
+        const Side sd = static_cast<Side>(list[0].side);
+        const bool u_side = sd == Side::kU0 || sd == Side::kU1;
+        const bool b_on_boundary = u_side ? (b.y == 0.0 || b.y == 1.0) : (b.x == 0.0 || b.x == 1.0);
+        if (!b_on_boundary) continue;
+        Vec2 c = b;
+        if (sd == Side::kU0) c.x = 0.0;
+        if (sd == Side::kU1) c.x = 1.0;
+        if (sd == Side::kV0) c.y = 0.0;
+        if (sd == Side::kV1) c.y = 1.0;
+        list.push_back({c, list[0].side_pos, list[0].inner_pos, list[0].side, -1});
+      }
+      if (list.size() != 2 || list[0].side != list[1].side) continue;
+      Hole h;
+      h.patch = p;
+      h.uv = {Vec2(inner.first, inner.second), list[0].side_uv, list[1].side_uv};
+      h.X = {list[0].inner_pos, list[0].side_pos, list[1].side_pos};
+      for (const Spoke& sp : list) {
+        if (sp.triangle < 0) continue;
+        const Triangle& tri = mesh.triangles[static_cast<size_t>(sp.triangle)];
+        h.neighbours.push_back({mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]});
+      }
+      const double area = (h.uv[1].x - h.uv[0].x) * (h.uv[2].y - h.uv[0].y) - (h.uv[2].x - h.uv[0].x) * (h.uv[1].y - h.uv[0].y);
+      if (area == 0.0) continue;
+      if (area < 0.0) {
+        std::swap(h.uv[1], h.uv[2]);
+        std::swap(h.X[1], h.X[2]);
+      }
+      holes.push_back(h);
+    }
+  }
+  return holes;
+}
+
 // Coverage of every patch domain by the triangles' (u, v): all corners inside [0, 1]^2, every uv
 // triangle positively oriented, and the areas summing to 1 per patch (relative tolerance 1e-9).
-bool check_coverage(const Model& model, const Tessellation& mesh, std::string& note) {
+bool check_coverage(const Model& model, const Tessellation& mesh, const std::vector<Hole>& holes, std::string& note) {
   std::vector<long double> area(model.patches.size(), 0.0L);
+  for (const Hole& h : holes) {
+    const auto& q = h.uv;
+    area[h.patch] += 0.5L * ((static_cast<long double>(q[1].x) - q[0].x) * (static_cast<long double>(q[2].y) - q[0].y) -
+                             (static_cast<long double>(q[2].x) - q[0].x) * (static_cast<long double>(q[1].y) - q[0].y));
+  }
   for (size_t t = 0; t < mesh.triangles.size(); ++t) {
     const auto& q = mesh.triangle_uv[t];
     for (const Vec2& p : q) {
@@ -514,7 +681,7 @@ namespace {
 
 // Lower bounds from the worst candidates of each direction.
 void certify_lowers(const Model& model, const Tessellation& mesh, const std::vector<TriangleResult>& results,
-                    const CertifyOptions& options, DistanceReport& report) {
+                    const CertifyOptions& options, const detail::MeshDistance& dist, DistanceReport& report) {
   const size_t k = std::min<size_t>(static_cast<size_t>(std::max(options.lower_candidates, 1)), results.size());
   std::vector<size_t> order(results.size());
   std::iota(order.begin(), order.end(), size_t(0));
@@ -534,7 +701,6 @@ void certify_lowers(const Model& model, const Tessellation& mesh, const std::vec
     }
   }
   // Surface->mesh: exact surface points (evaluation error bounded below) against the whole mesh.
-  const detail::MeshDistance dist(mesh);
   std::partial_sort(order.begin(), order.begin() + static_cast<long>(k), order.end(),
                     [&](size_t a, size_t b) { return results[a].s2m_est > results[b].s2m_est; });
   std::vector<Vec3> points(k);
@@ -607,11 +773,19 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
   const double estimate = *std::max_element(est.begin(), est.end());
   const double tau = options.target_ratio * estimate;
   // Pass 2: refinement.
+  const detail::MeshDistance mesh_distance(mesh);
+  const auto nearest = [&](const Vec3& p, std::array<Vec3, 3>& tri) {
+    const int64_t t = mesh_distance.closest_triangle(p);
+    if (t < 0) return false;
+    tri = corners(static_cast<size_t>(t));
+    return true;
+  };
   std::vector<TriangleResult> results(count);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 64), [&](const tbb::blocked_range<size_t>& range) {
     Scratch s;
     for (size_t t = range.begin(); t != range.end(); ++t) {
-      results[t] = refine_triangle(pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], corners(t), tau, options.max_depth, s);
+      results[t] =
+          refine_triangle(pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], corners(t), tau, options.max_depth, s, false, nullptr, nearest);
       if (results[t].m2s_est < est[t]) {
         results[t].m2s_est = est[t];
         results[t].m2s_point = est_point[t];
@@ -622,7 +796,20 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
       }
     }
   });
+  // Dropped degenerate triangles next to collapsed sides: surface->mesh only.
+  const std::vector<Hole> holes = collapsed_side_holes(model, mesh);
+  std::vector<TriangleResult> hole_results(holes.size());
+  tbb::parallel_for(size_t(0), holes.size(), [&](size_t i) {
+    Scratch s;
+    hole_results[i] =
+        refine_triangle(pd[holes[i].patch], holes[i].uv, holes[i].X, tau, options.max_depth, s, true, &holes[i].neighbours, nearest);
+  });
   double m2s = 0.0, s2m = 0.0;
+  for (const TriangleResult& r : hole_results) {
+    s2m = std::max(s2m, r.s2m);
+    report.leaves += r.leaves;
+    report.budget_exhausted += r.exhausted ? 1 : 0;
+  }
   for (size_t t = 0; t < count; ++t) {
     m2s = std::max(m2s, results[t].m2s);
     s2m = std::max(s2m, results[t].s2m);
@@ -644,12 +831,13 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
     (void)q;
     report.rounding = 8.0 * (P.n + P.m + 1 + 4) * kUnit * (P.hmag + P.wmax * xmag) / P.wmin + 4.0 * kUnit * P.lipschitz;
   }
-  report.coverage_ok = check_coverage(model, mesh, report.coverage_note);
+  report.coverage_ok = check_coverage(model, mesh, holes, report.coverage_note);
+  report.holes = holes.size();
   report.mesh_to_surface.upper = m2s;
   report.mesh_to_surface.certified = true;
   report.surface_to_mesh.upper = report.coverage_ok ? s2m : kInf;
   report.surface_to_mesh.certified = report.coverage_ok;
-  certify_lowers(model, mesh, results, options, report);
+  certify_lowers(model, mesh, results, options, mesh_distance, report);
   report.hausdorff.lower = std::max(report.mesh_to_surface.lower, report.surface_to_mesh.lower);
   report.hausdorff.upper = std::max(report.mesh_to_surface.upper, report.surface_to_mesh.upper);
   report.hausdorff.certified = report.mesh_to_surface.certified && report.surface_to_mesh.certified;

@@ -25,6 +25,7 @@ constexpr double kUnit = std::numeric_limits<double>::epsilon() / 2;
 
 struct MeshDistance::Impl {
   std::vector<CTriangle> triangles;
+  std::vector<int64_t> index;  // mesh triangle of each CGAL triangle
   Tree tree;
   double scale = 0.0;  // largest absolute coordinate of the mesh
 };
@@ -39,6 +40,7 @@ MeshDistance::MeshDistance(const Tessellation& mesh) : impl_(std::make_unique<Im
     const CTriangle tri(P(t[0]), P(t[1]), P(t[2]));
     if (tri.is_degenerate()) continue;  // zero area: its points lie on its edges, shared or reported
     impl_->triangles.push_back(tri);
+    impl_->index.push_back(static_cast<int64_t>(&t - mesh.triangles.data()));
   }
   for (const Vec3& p : mesh.positions) {
     impl_->scale = std::max({impl_->scale, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
@@ -59,6 +61,12 @@ double MeshDistance::distance(const Vec3& p, Vec3* closest) const {
   const K::Point_3 c = impl_->tree.closest_point(q);
   if (closest) *closest = Vec3(c.x(), c.y(), c.z());
   return glm::length(Vec3(c.x(), c.y(), c.z()) - p);
+}
+
+int64_t MeshDistance::closest_triangle(const Vec3& p) const {
+  if (empty()) return -1;
+  const auto hit = impl_->tree.closest_point_and_primitive(K::Point_3(p.x, p.y, p.z));
+  return impl_->index[static_cast<size_t>(hit.second - impl_->triangles.cbegin())];
 }
 
 double MeshDistance::rounding_bound(const Vec3& p) const {

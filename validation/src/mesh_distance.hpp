@@ -20,6 +20,8 @@ class MeshDistance {
   double distance(const Vec3& p, Vec3* closest = nullptr) const;
   // A generous bound on |computed distance - true distance| for a query at p.
   double rounding_bound(const Vec3& p) const;
+  // Index (into the mesh's triangles) of a triangle nearest to p; -1 when the mesh is empty.
+  int64_t closest_triangle(const Vec3& p) const;
   bool empty() const;
 
  private:

@@ -46,6 +46,7 @@ struct DistanceReport {
   std::vector<double> triangle_upper;  // per triangle: max of both directions' bounds over it
   bool coverage_ok = false;            // every patch's domain is covered by the triangles' (u, v)
   std::string coverage_note;           // why coverage failed, when it did
+  uint64_t holes = 0;                  // dropped degenerate (u, v) triangles reconstructed at collapsed sides
   double rounding = 0.0;               // the largest rounding term added to any triangle's bound
   uint64_t leaves = 0;                 // sub-triangles evaluated in total
   uint64_t budget_exhausted = 0;       // triangles still above the target at max_depth
