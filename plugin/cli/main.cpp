@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   const std::vector<sagitta::cli::Command> commands = {
       sagitta::cli::register_run(app),
       sagitta::cli::register_tessellate(app),
+      sagitta::cli::register_validate(app),
   };
   try {
     app.parse(argc, argv);

@@ -188,7 +188,7 @@ TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model,
         const auto nb = curves->nearest(mesh.positions[b]);
         const auto nm = curves->nearest(mid);
         boundary = na.first == nb.first && na.second <= boundary_tol && nb.second <= boundary_tol &&
-                   nm.second <= boundary_tol + 1e-3 * glm::length(mesh.positions[a] - mesh.positions[b]);
+                   nm.second <= boundary_tol + 0.25 * glm::length(mesh.positions[a] - mesh.positions[b]);
       }
       if (boundary) {
         ++r.model_boundary_edges;

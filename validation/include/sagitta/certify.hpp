@@ -70,13 +70,13 @@ double certified_distance_lower(const Model& model, const Vec3& x, double target
 // patches), rounding included. Exposed for tests.
 double affine_error_bound(const BezierPatch& patch, const Vec2 q[3], const Vec3 X[3]);
 
-// Certified distance for a mesh without (u, v) (an STL, OCCT's BRepMesh output):
-// mesh->surface upper = certified error of a uniform reference tessellation (eps_ref) plus, per
-// mesh triangle, the largest vertex distance to that reference (the distance to a triangle mesh is
-// convex along a triangle only when measured to a single convex piece, so vertices alone are not
-// enough: each triangle is subdivided until its circumradius is below its vertices' slack); surface->mesh
-// upper = the largest distance from reference-surface samples to the mesh plus a Lipschitz term
-// for the gaps between samples. Lower bounds as for certify_distance.
+// Certified distance for a mesh without (u, v) (an STL, OCCT's BRepMesh output). A uniform
+// reference tessellation R is certified first (eps_ref per direction); then CGAL's
+// bounded_error_Hausdorff_distance gives h(M->R) and h(R->M) within a stated error e, and
+//   mesh->surface <= h(M->R) + e + eps_ref(R->S),   surface->mesh <= h(R->M) + e + eps_ref(S->R)
+// (triangle inequality). Lower bounds: mesh points farthest from R certified against S by
+// branch-and-bound; exact surface samples against M by an AABB tree. Throws InputError for an
+// empty mesh.
 struct ExternalOptions {
   int reference_segments = 32;   // uniform segments per patch side of the reference tessellation
   int surface_samples = 64;      // samples per patch side for surface->mesh

@@ -27,9 +27,10 @@ struct TopologyOptions {
   // t_junction_tolerance * |b - a| and it projects strictly inside, at least that fraction of
   // |b - a| away from both ends. Exactly collinear cases are decided by CGAL's exact predicate.
   double t_junction_tolerance = 1e-7;
-  // For meshes without (u, v): a vertex lies on a free boundary curve of the model when its
-  // distance to it is at most this times the model's box diagonal.
-  double boundary_tolerance = 1e-7;
+  // For meshes without (u, v): an open edge is model boundary when both its vertices lie within
+  // this times the model's box diagonal of the same free boundary curve (1e-6 absorbs the float
+  // coordinates of STL files) and its midpoint within a quarter of its length of that curve.
+  double boundary_tolerance = 1e-6;
 };
 
 struct TopologyReport {

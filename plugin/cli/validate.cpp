@@ -1,0 +1,218 @@
+// `sagitta validate`: certified distance interval and topology verdict for a tessellation of a
+// patch model, made here by a scheme or read from a mesh file.
+#include "commands.hpp"
+#include "schemes.hpp"
+
+#include "sagitta/certify.hpp"
+#include "sagitta/io/mesh_io.hpp"
+#include "sagitta/mesh_check.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <limits>
+#include <memory>
+
+namespace sagitta::cli {
+
+namespace {
+
+// Exit codes (also in --help).
+constexpr int kExitRequirementFailed = 3;
+
+struct ValidateOptions {
+  std::string input;
+  std::string mesh;
+  SchemeOptions scheme;
+  std::string json;
+  std::string error_ply;
+  double max_error = -1.0;
+  bool require_watertight = false;
+  int max_depth = 5;
+  int reference_segments = 32;
+};
+
+nlohmann::json vec_json(const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
+
+// Infinity is not JSON: an uncertified upper bound is written as null.
+nlohmann::json number_or_null(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
+nlohmann::json interval_json(const DistanceInterval& d) {
+  nlohmann::json j;
+  j["lower"] = d.lower;
+  j["upper"] = number_or_null(d.upper);
+  j["width"] = number_or_null(d.width());
+  j["ratio"] = number_or_null(d.ratio());
+  j["upper_certified"] = d.certified;
+  j["lower_certified"] = true;
+  j["witness"] = vec_json(d.witness);
+  j["witness_patch"] = d.witness_patch;
+  return j;
+}
+
+nlohmann::json topology_report_json(const TopologyReport& t) {
+  nlohmann::json j;
+  j["edges"] = t.edges;
+  j["open_edges"] = t.open_edges;
+  j["model_boundary_edges"] = t.model_boundary_edges;
+  j["crack_edges"] = t.crack_edges;
+  j["t_junctions"] = t.t_junctions;
+  j["non_manifold_edges"] = t.non_manifold_edges;
+  j["inconsistent_orientation_edges"] = t.inconsistent_orientation_edges;
+  j["degenerate_triangles"] = t.degenerate_triangles;
+  j["duplicated_faces"] = t.duplicated_faces;
+  j["watertight"] = t.watertight();
+  j["open_edges_classified_by"] = t.classified_with_uv ? "patch (u, v)" : "distance to the model's free boundary curves";
+  nlohmann::json list = nlohmann::json::array();
+  for (const TopologyFinding& f : t.findings) {
+    list.push_back({{"kind", f.kind}, {"position", vec_json(f.position)}, {"patch", f.patch}, {"triangle", f.triangle},
+                    {"vertices", {f.vertices[0], f.vertices[1]}}});
+  }
+  j["findings"] = list;
+  return j;
+}
+
+int run_validate(const ValidateOptions& o) {
+  check_output_is_not_input(o.json, o.input);
+  check_output_is_not_input(o.json, o.mesh);
+  check_output_is_not_input(o.error_ply, o.input);
+  check_output_is_not_input(o.error_ply, o.mesh);
+  if (o.max_depth < 0 || o.max_depth > 10) throw InputError("--max-depth must be in 0..10");
+  const Stopwatch total;
+  const Model model = load_model(o.input);
+  const Topology topology = build_topology(model);
+  nlohmann::json doc;
+  doc["input"] = o.input.empty() ? "default" : o.input;
+  doc["patches"] = model.patches.size();
+  Tessellation mesh;
+  double tessellation_seconds = 0.0;
+  if (!o.mesh.empty()) {
+    mesh = io::read_mesh(o.mesh);
+    doc["mesh"] = o.mesh;
+  } else {
+    SchemeOptions scheme = o.scheme;
+    scheme.surface_data = true;
+    nlohmann::json stats;
+    const Stopwatch clock;
+    mesh = run_scheme(model, topology, scheme, stats);
+    tessellation_seconds = clock.seconds();
+    doc["tessellation"] = stats;
+    doc["tessellation"]["seconds"] = tessellation_seconds;
+  }
+  doc["triangles"] = mesh.triangles.size();
+  doc["vertices"] = mesh.positions.size();
+  doc["dropped_degenerate_triangles"] = mesh.degenerate_triangles;
+
+  const Stopwatch clock;
+  CertifyOptions certify;
+  certify.max_depth = o.max_depth;
+  DistanceReport distance;
+  if (mesh.has_surface()) {
+    distance = certify_distance(model, mesh, certify);
+    doc["method"] = "bernstein";
+  } else {
+    ExternalOptions external;
+    external.reference_segments = o.reference_segments;
+    external.certify = certify;
+    distance = certify_external(model, mesh, external);
+    doc["method"] = "reference";
+    doc["reference_segments"] = o.reference_segments;
+  }
+  const double distance_seconds = clock.seconds();
+  const Stopwatch topo_clock;
+  const TopologyReport topo = check_mesh_topology(mesh, &model, &topology);
+  const double topology_seconds = topo_clock.seconds();
+
+  doc["hausdorff"] = interval_json(distance.hausdorff);
+  doc["mesh_to_surface"] = interval_json(distance.mesh_to_surface);
+  doc["surface_to_mesh"] = interval_json(distance.surface_to_mesh);
+  doc["certified"] = distance.hausdorff.certified;
+  doc["coverage_ok"] = distance.coverage_ok;
+  if (!distance.coverage_note.empty()) doc["coverage_note"] = distance.coverage_note;
+  doc["rounding_term"] = distance.rounding;
+  doc["subtriangles"] = distance.leaves;
+  doc["triangles_at_depth_budget"] = distance.budget_exhausted;
+  doc["max_depth"] = o.max_depth;
+  doc["topology"] = topology_report_json(topo);
+  doc["model_topology"] = topology_json(model, topology);
+  doc["distance_seconds"] = distance_seconds;
+  doc["topology_seconds"] = topology_seconds;
+  doc["seconds"] = distance_seconds + topology_seconds;
+  if (tessellation_seconds > 0.0) doc["validation_to_tessellation_ratio"] = (distance_seconds + topology_seconds) / tessellation_seconds;
+
+  // Requirements.
+  nlohmann::json failed = nlohmann::json::array();
+  if (o.max_error >= 0.0) {
+    doc["max_error"] = o.max_error;
+    if (!(distance.hausdorff.upper <= o.max_error)) {
+      failed.push_back(distance.hausdorff.lower > o.max_error ? "max-error: the distance exceeds it (lower bound above)"
+                                                               : "max-error: not certified (upper bound above)");
+    }
+  }
+  if (o.require_watertight && !topo.watertight()) failed.push_back("watertight: cracks, T-junctions or non-manifold edges found");
+  doc["requirements_failed"] = failed;
+
+  if (!o.error_ply.empty()) {
+    if (distance.triangle_upper.size() != mesh.triangles.size()) {
+      throw InputError("--error-ply needs a mesh with (u, v): per-triangle bounds exist only for our schemes' meshes");
+    }
+    std::vector<float> error(distance.triangle_upper.size());
+    for (size_t t = 0; t < error.size(); ++t) {
+      const float f = static_cast<float>(distance.triangle_upper[t]);
+      error[t] = f < distance.triangle_upper[t] ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+    }
+    io::MeshWriteOptions w;
+    w.face_error = &error;
+    io::write_ply(mesh, o.error_ply, w);
+    doc["error_ply"] = o.error_ply;
+  }
+  doc["total_seconds"] = total.seconds();
+  if (!o.json.empty()) write_json(o.json, doc);
+
+  std::cout << "hausdorff in [" << distance.hausdorff.lower << ", " << distance.hausdorff.upper << "]"
+            << (distance.hausdorff.certified ? "" : " (upper not certified)") << "; mesh->surface ["
+            << distance.mesh_to_surface.lower << ", " << distance.mesh_to_surface.upper << "]; surface->mesh ["
+            << distance.surface_to_mesh.lower << ", " << distance.surface_to_mesh.upper << "]; " << mesh.triangles.size()
+            << " triangles; open edges " << topo.open_edges << " (model boundary " << topo.model_boundary_edges
+            << ", cracks " << topo.crack_edges << "), T-junctions " << topo.t_junctions << ", non-manifold "
+            << topo.non_manifold_edges << ", misoriented " << topo.inconsistent_orientation_edges << "; "
+            << doc["seconds"].get<double>() << " s\n";
+  for (const auto& f : failed) std::cerr << "sagitta validate: requirement failed: " << f.get<std::string>() << "\n";
+  return failed.empty() ? 0 : kExitRequirementFailed;
+}
+
+}  // namespace
+
+Command register_validate(CLI::App& app) {
+  auto o = std::make_shared<ValidateOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "validate",
+      "Certify the distance between a tessellation and the exact surfaces (an interval lower <= true <= upper) and check "
+      "its topology. Exit codes: 0 all stated requirements hold; 2 input error; 3 a requirement (--max-error, "
+      "--require-watertight) failed or could not be certified.");
+  cmd->add_option("input", o->input, "Patch file (.bpt, .rib); omit or 'default' for the built-in model");
+  cmd->add_option("--mesh", o->mesh, "Validate this mesh (.obj, .ply, .stl) instead of tessellating; no (u, v) needed");
+  add_scheme_options(cmd, o->scheme);
+  cmd->add_option("--json", o->json, "Report: hausdorff/mesh_to_surface/surface_to_mesh {lower, upper}, topology, seconds");
+  cmd->add_option("--max-error", o->max_error, "Require the certified Hausdorff upper bound to be <= E (exit 3 otherwise)");
+  cmd->add_flag("--require-watertight", o->require_watertight,
+                "Require no cracks, T-junctions or non-manifold edges (model boundary edges are allowed; exit 3 otherwise)");
+  cmd->add_option("--error-ply", o->error_ply, "Write the mesh as binary PLY with a per-face 'error' (certified upper bound)");
+  cmd->add_option("--max-depth", o->max_depth, "Subdivision budget per triangle: at most 4^D sub-triangles (0..10)")
+      ->capture_default_str();
+  cmd->add_option("--reference-segments", o->reference_segments,
+                  "--mesh only: uniform segments per patch side of the certified reference tessellation")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+  return {cmd, [o] {
+            const int code = run_validate(*o);
+            if (code != 0) {
+              std::cout.flush();
+              std::cerr.flush();
+              std::exit(code);
+            }
+          }};
+}
+
+}  // namespace sagitta::cli

@@ -1,0 +1,132 @@
+// Certified distance for meshes without (u, v): a certified reference tessellation and CGAL's
+// bounded-error Hausdorff distance between the meshes (see certify.hpp and docs/VALIDATION.md).
+#include "sagitta/certify.hpp"
+
+#include "mesh_distance.hpp"
+#include "sagitta/evaluate.hpp"
+#include "sagitta/uniform.hpp"
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/distance.h>
+#include <CGAL/Surface_mesh.h>
+
+#include <glm/geometric.hpp>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <numeric>
+
+namespace sagitta {
+
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using SurfaceMesh = CGAL::Surface_mesh<K::Point_3>;
+namespace PMP = CGAL::Polygon_mesh_processing;
+constexpr double kUnit = std::numeric_limits<double>::epsilon() / 2;
+
+// Every non-degenerate triangle with its own three vertices: a face soup always forms a valid
+// Surface_mesh, whatever the input's connectivity (non-manifold edges included).
+SurfaceMesh to_surface_mesh(const Tessellation& mesh) {
+  SurfaceMesh sm;
+  for (const Triangle& t : mesh.triangles) {
+    const Vec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+    const K::Point_3 pa(a.x, a.y, a.z), pb(b.x, b.y, b.z), pc(c.x, c.y, c.z);
+    if (CGAL::collinear(pa, pb, pc)) continue;  // zero area: its points lie on other faces' edges or nowhere new
+    sm.add_face(sm.add_vertex(pa), sm.add_vertex(pb), sm.add_vertex(pc));
+  }
+  return sm;
+}
+
+}  // namespace
+
+DistanceReport certify_external(const Model& model, const Tessellation& mesh, const ExternalOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  if (mesh.triangles.empty()) throw InputError("validate: the mesh has no triangles");
+  DistanceReport report;
+  // Reference: uniform tessellation with its own certified interval.
+  const Topology topology = build_topology(model);
+  UniformParams params;
+  params.segments = options.reference_segments;
+  const Tessellation reference = tessellate_uniform(model, topology, params);
+  const DistanceReport ref = certify_distance(model, reference, options.certify);
+  const double eps_m2s = ref.mesh_to_surface.upper;  // every reference point is this close to S
+  const double eps_s2m = ref.surface_to_mesh.upper;  // every surface point is this close to the reference
+  const SurfaceMesh sm = to_surface_mesh(mesh), sr = to_surface_mesh(reference);
+  if (sm.number_of_faces() == 0) throw InputError("validate: every triangle of the mesh is degenerate");
+  const double diag = model_box(model).diagonal();
+  const double error_bound = std::max(0.02 * std::max(eps_m2s, eps_s2m), 1e-9 * diag);
+  // Mesh -> reference and reference -> mesh, each within error_bound of the true one-sided value.
+  const double h_mr = PMP::bounded_error_Hausdorff_distance<CGAL::Sequential_tag>(sm, sr, error_bound);
+  const double h_rm = PMP::bounded_error_Hausdorff_distance<CGAL::Sequential_tag>(sr, sm, error_bound);
+  const double rounding = 64.0 * kUnit * diag;
+  report.mesh_to_surface.upper = h_mr + error_bound + eps_m2s + rounding;
+  report.mesh_to_surface.certified = ref.mesh_to_surface.certified;
+  report.surface_to_mesh.upper = h_rm + error_bound + eps_s2m + rounding;
+  report.surface_to_mesh.certified = ref.surface_to_mesh.certified;
+  report.coverage_ok = ref.coverage_ok;
+  report.coverage_note = ref.coverage_note;
+  report.rounding = rounding;
+  report.leaves = ref.leaves;
+
+  // Lower bounds. Mesh -> surface: the mesh points farthest from the reference (vertices, edge
+  // midpoints, centroids), certified against the exact surface by branch-and-bound.
+  const detail::MeshDistance to_reference(reference), to_mesh(mesh);
+  std::vector<Vec3> points;
+  for (const Triangle& t : mesh.triangles) {
+    const Vec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+    points.push_back((a + b + c) / 3.0);
+    points.push_back(0.5 * (a + b));
+    points.push_back(a);
+  }
+  std::vector<double> d(points.size());
+  tbb::parallel_for(size_t(0), points.size(), [&](size_t i) { d[i] = to_reference.distance(points[i]); });
+  const size_t k = std::min<size_t>(static_cast<size_t>(std::max(options.certify.lower_candidates, 1)), points.size());
+  std::vector<size_t> order(points.size());
+  std::iota(order.begin(), order.end(), size_t(0));
+  std::partial_sort(order.begin(), order.begin() + static_cast<long>(k), order.end(),
+                    [&](size_t a, size_t b) { return d[a] > d[b]; });
+  std::vector<double> low(k);
+  tbb::parallel_for(size_t(0), k, [&](size_t i) {
+    const size_t j = order[i];
+    low[i] = certified_distance_lower(model, points[j], d[j] + eps_m2s, options.certify.lower_node_budget);
+  });
+  for (size_t i = 0; i < k; ++i) {
+    if (low[i] > report.mesh_to_surface.lower) {
+      report.mesh_to_surface.lower = low[i];
+      report.mesh_to_surface.witness = points[order[i]];
+    }
+  }
+  // Surface -> mesh: exact surface samples against the mesh (AABB tree), minus rounding.
+  const int n = std::max(options.surface_samples, 1);
+  for (uint32_t p = 0; p < model.patches.size(); ++p) {
+    const BezierPatch& patch = model.patches[p];
+    std::vector<double> best(static_cast<size_t>((n + 1) * (n + 1)));
+    std::vector<Vec3> where(best.size());
+    tbb::parallel_for(0, (n + 1) * (n + 1), [&](int s) {
+      const auto e = de_casteljau<double>(patch, double(s / (n + 1)) / n, double(s % (n + 1)) / n);
+      const Vec3 x(e[0], e[1], e[2]);
+      where[s] = x;
+      best[s] = std::max(0.0, to_mesh.distance(x) - to_mesh.rounding_bound(x) - rounding);
+    });
+    for (size_t s = 0; s < best.size(); ++s) {
+      if (best[s] > report.surface_to_mesh.lower) {
+        report.surface_to_mesh.lower = best[s];
+        report.surface_to_mesh.witness = where[s];
+        report.surface_to_mesh.witness_patch = p;
+      }
+    }
+  }
+  report.hausdorff.lower = std::max(report.mesh_to_surface.lower, report.surface_to_mesh.lower);
+  report.hausdorff.upper = std::max(report.mesh_to_surface.upper, report.surface_to_mesh.upper);
+  report.hausdorff.certified = report.mesh_to_surface.certified && report.surface_to_mesh.certified;
+  const bool m2s_wins = report.mesh_to_surface.lower >= report.surface_to_mesh.lower;
+  report.hausdorff.witness = m2s_wins ? report.mesh_to_surface.witness : report.surface_to_mesh.witness;
+  report.hausdorff.witness_patch = m2s_wins ? -1 : report.surface_to_mesh.witness_patch;
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+}  // namespace sagitta
