@@ -58,38 +58,36 @@ struct FreeCurves {
       curves.push_back(std::move(c));
     }
   }
-  // Index of the free curve nearest to p with its distance (curves.size() when none).
-  std::pair<size_t, double> nearest(const Vec3& p) const {
-    size_t best = curves.size();
-    double best_d = std::numeric_limits<double>::infinity();
-    for (size_t i = 0; i < curves.size(); ++i) {
-      const Curve& c = curves[i];
-      int k_best = 0;
-      double d_best = std::numeric_limits<double>::infinity();
-      for (int k = 0; k <= kSamples; ++k) {
-        const double d = glm::length(c.samples[k] - p);
-        if (d < d_best) {
-          d_best = d;
-          k_best = k;
-        }
-      }
-      double lo = std::max(0.0, (k_best - 1.0) / kSamples), hi = std::min(1.0, (k_best + 1.0) / kSamples);
-      for (int it = 0; it < 80; ++it) {
-        const double m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
-        if (glm::length(de_casteljau_curve(c.points, c.weights, m1) - p) <
-            glm::length(de_casteljau_curve(c.points, c.weights, m2) - p)) {
-          hi = m2;
-        } else {
-          lo = m1;
-        }
-      }
-      d_best = std::min(d_best, glm::length(de_casteljau_curve(c.points, c.weights, 0.5 * (lo + hi)) - p));
-      if (d_best < best_d) {
-        best_d = d_best;
-        best = i;
+  // Distance from p to free curve i (dense samples, then a ternary search around the best one).
+  double distance(size_t i, const Vec3& p) const {
+    const Curve& c = curves[i];
+    int k_best = 0;
+    double d_best = std::numeric_limits<double>::infinity();
+    for (int k = 0; k <= kSamples; ++k) {
+      const double d = glm::length(c.samples[k] - p);
+      if (d < d_best) {
+        d_best = d;
+        k_best = k;
       }
     }
-    return {best, best_d};
+    double lo = std::max(0.0, (k_best - 1.0) / kSamples), hi = std::min(1.0, (k_best + 1.0) / kSamples);
+    for (int it = 0; it < 80; ++it) {
+      const double m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
+      if (glm::length(de_casteljau_curve(c.points, c.weights, m1) - p) <
+          glm::length(de_casteljau_curve(c.points, c.weights, m2) - p)) {
+        hi = m2;
+      } else {
+        lo = m1;
+      }
+    }
+    return std::min(d_best, glm::length(de_casteljau_curve(c.points, c.weights, 0.5 * (lo + hi)) - p));
+  }
+  // True when a, b lie within tol of one same free curve and the midpoint within mid_tol of it.
+  bool on_same_curve(const Vec3& a, const Vec3& b, double tol, double mid_tol) const {
+    for (size_t i = 0; i < curves.size(); ++i) {
+      if (distance(i, a) <= tol && distance(i, b) <= tol && distance(i, 0.5 * (a + b)) <= mid_tol) return true;
+    }
+    return false;
   }
 };
 
@@ -105,7 +103,9 @@ TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model,
   auto add = [&](TopologyFinding f) {
     if (listed[f.kind]++ < options.max_listed) r.findings.push_back(std::move(f));
   };
-  auto patch_of = [&](size_t t) -> int64_t { return mesh.triangle_patch.size() > t ? mesh.triangle_patch[t] : -1; };
+  auto patch_of = [&](size_t t) -> int64_t {
+    return mesh.triangle_patch.size() > t ? static_cast<int64_t>(mesh.triangle_patch[t]) : int64_t(-1);
+  };
   auto centroid = [&](const Triangle& t) {
     return (mesh.positions[t[0]] + mesh.positions[t[1]] + mesh.positions[t[2]]) / 3.0;
   };
@@ -184,11 +184,8 @@ TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model,
           boundary = info.edge >= 0 && topology->edges[static_cast<size_t>(info.edge)].uses.size() == 1;
         }
       } else if (curves && !curves->curves.empty()) {
-        const auto na = curves->nearest(mesh.positions[a]);
-        const auto nb = curves->nearest(mesh.positions[b]);
-        const auto nm = curves->nearest(mid);
-        boundary = na.first == nb.first && na.second <= boundary_tol && nb.second <= boundary_tol &&
-                   nm.second <= boundary_tol + 0.25 * glm::length(mesh.positions[a] - mesh.positions[b]);
+        boundary = curves->on_same_curve(mesh.positions[a], mesh.positions[b], boundary_tol,
+                                         boundary_tol + 0.25 * glm::length(mesh.positions[a] - mesh.positions[b]));
       }
       if (boundary) {
         ++r.model_boundary_edges;
