@@ -294,3 +294,31 @@ INSTANTIATE_TEST_SUITE_P(Models, TeaSet, ::testing::Values("teapot", "teacup", "
 
 }  // namespace
 }  // namespace sagitta
+
+namespace sagitta {
+namespace {
+
+TEST(CertifyExternal, MeshWithoutUvAgreesWithOwnCertificate) {
+  // The same mesh certified with its (u, v) and as a bare mesh: the two intervals must overlap,
+  // and the external interval is wider by about the reference's own error.
+  const Model model = fixtures::pillow_box();
+  const Tessellation mesh = uniform(model, 8);
+  const DistanceReport own = certify_distance(model, mesh);
+  Tessellation bare;
+  bare.positions = mesh.positions;
+  bare.triangles = mesh.triangles;
+  ExternalOptions options;
+  options.reference_segments = 32;
+  const DistanceReport ext = certify_external(model, bare, options);
+  std::cout << "[pillow box N=8] own [" << own.hausdorff.lower << ", " << own.hausdorff.upper << "] external ["
+            << ext.hausdorff.lower << ", " << ext.hausdorff.upper << "] in " << ext.seconds << " s\n";
+  EXPECT_TRUE(ext.hausdorff.certified);
+  EXPECT_LE(ext.hausdorff.lower, own.hausdorff.upper);
+  EXPECT_GE(ext.hausdorff.upper, own.hausdorff.lower);
+  EXPECT_LE(ext.hausdorff.upper, 1.5 * own.hausdorff.upper);
+  EXPECT_GE(ext.hausdorff.lower, 0.5 * own.hausdorff.lower);
+  EXPECT_THROW(certify_external(model, Tessellation{}), InputError);
+}
+
+}  // namespace
+}  // namespace sagitta
