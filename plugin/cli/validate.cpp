@@ -29,7 +29,7 @@ struct ValidateOptions {
   std::string error_ply;
   double max_error = -1.0;
   bool require_watertight = false;
-  int max_depth = 5;
+  int max_depth = 8;
   int reference_segments = 32;
 };
 

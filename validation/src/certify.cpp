@@ -771,7 +771,9 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
     }
   });
   const double estimate = *std::max_element(est.begin(), est.end());
-  const double tau = options.target_ratio * estimate;
+  // Refinement target; the floor (1e-12 of the model's size, near the rounding term) stops exact
+  // meshes (planar patches) from refining to the depth budget for nothing.
+  const double tau = std::max(options.target_ratio * estimate, 1e-12 * model_box(model).diagonal());
   // Pass 2: refinement.
   const detail::MeshDistance mesh_distance(mesh);
   const auto nearest = [&](const Vec3& p, std::array<Vec3, 3>& tri) {

@@ -32,7 +32,7 @@ struct CertifyOptions {
   // Subdivide a triangle's barycentric domain (4-split) while its bound exceeds
   // target_ratio * (current lower estimate), down to max_depth levels (4^max_depth leaves).
   double target_ratio = 1.05;
-  int max_depth = 5;
+  int max_depth = 8;
   // Number of worst candidate points per direction whose distance is certified for the lower bounds.
   int lower_candidates = 24;
   // Node budget of the branch-and-bound that certifies d(x, S) from below, per candidate point.
