@@ -93,13 +93,6 @@ Tessellation run_scheme(const Model& model, const Topology& topology, const Sche
   throw InputError("unknown scheme '" + o.scheme + "'");
 }
 
-bool is_mesh_file(const std::string& path) {
-  const size_t dot = path.find_last_of('.');
-  std::string ext = dot == std::string::npos ? "" : path.substr(dot);
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext == ".obj" || ext == ".ply" || ext == ".stl";
-}
-
 Tessellation run_pn_on_mesh(const Tessellation& mesh, const SchemeOptions& o, nlohmann::json& stats) {
   if (o.scheme != "pn") throw InputError("a mesh file can only be refined with --scheme pn (got '" + o.scheme + "')");
   PnParams params;

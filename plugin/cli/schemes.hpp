@@ -38,9 +38,6 @@ void add_scheme_options(CLI::App* command, SchemeOptions& options);
 // Refuses, with a message, a tessellation whose estimated size exceeds max_triangles.
 Tessellation run_scheme(const Model& model, const Topology& topology, const SchemeOptions& options, nlohmann::json& stats);
 
-// True for the mesh files the pn scheme refines (.obj, .ply, .stl).
-bool is_mesh_file(const std::string& path);
-
 // The pn scheme on a triangle mesh (normals chosen by options.normals); fills `stats` likewise.
 Tessellation run_pn_on_mesh(const Tessellation& mesh, const SchemeOptions& options, nlohmann::json& stats);
 

@@ -2,6 +2,7 @@
 #include "schemes.hpp"
 
 #include "sagitta/io/mesh_io.hpp"
+#include "sagitta/io/model_io.hpp"
 
 #include <iostream>
 #include <memory>
@@ -45,7 +46,7 @@ void run_tessellate_mesh(const TessellateOptions& o) {
 void run_tessellate(const TessellateOptions& o) {
   check_output_is_not_input(o.out, o.input);
   check_output_is_not_input(o.stats, o.input);
-  if (is_mesh_file(o.input)) {
+  if (io::is_mesh_file(o.input)) {
     run_tessellate_mesh(o);
     return;
   }

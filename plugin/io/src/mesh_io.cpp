@@ -55,14 +55,6 @@ void put(std::string& out, T value) {
   out.append(b, sizeof(T));
 }
 
-bool ends_with_ci(const std::string& path, const std::string& ext) {
-  if (path.size() < ext.size()) return false;
-  for (size_t k = 0; k < ext.size(); ++k) {
-    if (std::tolower(static_cast<unsigned char>(path[path.size() - ext.size() + k])) != ext[k]) return false;
-  }
-  return true;
-}
-
 }  // namespace
 
 void write_obj(const Tessellation& mesh, const std::string& path, const MeshWriteOptions& options) {
@@ -144,9 +136,10 @@ void write_stl(const Tessellation& mesh, const std::string& path, const MeshWrit
 }
 
 void write_mesh(const Tessellation& mesh, const std::string& path, const MeshWriteOptions& options) {
-  if (ends_with_ci(path, ".obj")) return write_obj(mesh, path, options);
-  if (ends_with_ci(path, ".ply")) return write_ply(mesh, path, options);
-  if (ends_with_ci(path, ".stl")) return write_stl(mesh, path, options);
+  const std::string ext = file_extension(path);
+  if (ext == ".obj") return write_obj(mesh, path, options);
+  if (ext == ".ply") return write_ply(mesh, path, options);
+  if (ext == ".stl") return write_stl(mesh, path, options);
   throw InputError(path + ": unknown mesh type (expected .obj, .ply or .stl)");
 }
 

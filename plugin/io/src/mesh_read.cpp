@@ -38,13 +38,6 @@ bool to_long(const std::string& s, long& out) {
   return end == s.c_str() + s.size() && errno != ERANGE;
 }
 
-std::string lower_ext(const std::string& path) {
-  const size_t dot = path.find_last_of('.');
-  std::string ext = dot == std::string::npos ? "" : path.substr(dot);
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
 void require_faces(const Tessellation& mesh, const std::string& name) {
   if (mesh.triangles.empty()) fail(name, 0, "the mesh has no faces");
   for (const Vec3& p : mesh.positions) {
@@ -362,8 +355,8 @@ Tessellation parse_stl(const std::string& text, const std::string& name) {
 }  // namespace
 
 Tessellation read_mesh(const std::string& path) {
-  const std::string ext = lower_ext(path);
-  if (ext != ".obj" && ext != ".ply" && ext != ".stl") {
+  const std::string ext = file_extension(path);
+  if (!is_mesh_file(path)) {
     throw InputError(path + ": unknown mesh type (expected .obj, .ply or .stl)");
   }
   return parse_mesh(read_text_file(path), path, ext);

@@ -4,6 +4,7 @@
 #include <glm/mat4x4.hpp>
 
 #include <cctype>
+#include <filesystem>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -336,15 +337,21 @@ Model parse_rib(const std::string& text, const std::string& name) {
 
 Model read_rib(const std::string& path) { return parse_rib(read_text_file(path), path); }
 
+std::string file_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+bool is_mesh_file(const std::string& path) {
+  const std::string ext = file_extension(path);
+  return ext == ".obj" || ext == ".ply" || ext == ".stl";
+}
+
 Model read_patch_model(const std::string& path) {
-  auto ends_with = [&](const std::string& ext) {
-    if (path.size() < ext.size()) return false;
-    std::string tail = path.substr(path.size() - ext.size());
-    for (char& c : tail) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return tail == ext;
-  };
-  if (ends_with(".bpt")) return read_bpt(path);
-  if (ends_with(".rib")) return read_rib(path);
+  const std::string ext = file_extension(path);
+  if (ext == ".bpt") return read_bpt(path);
+  if (ext == ".rib") return read_rib(path);
   throw InputError(path + ": unknown patch file type (expected .bpt or .rib)");
 }
 

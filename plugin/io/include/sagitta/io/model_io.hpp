@@ -26,4 +26,11 @@ Model read_patch_model(const std::string& path);
 // Reads a whole file; throws InputError naming it when it cannot be read.
 std::string read_text_file(const std::string& path);
 
+// The file name's extension in lower case with its dot (".obj"), or "" when it has none.
+// Only the last path component counts: "dir.d/file" has none.
+std::string file_extension(const std::string& path);
+
+// True for the mesh types read_mesh / write_mesh handle: .obj, .ply, .stl (any case).
+bool is_mesh_file(const std::string& path);
+
 }  // namespace sagitta::io
