@@ -1,0 +1,90 @@
+// CAD input through OpenCASCADE: STEP, IGES and OCCT BREP files become Bézier patch models, and
+// OCCT's own mesher (BRepMesh_IncrementalMesh) is the peer our schemes are compared with.
+// No OCCT type appears in this header; only plugin/ links OCCT.
+#pragma once
+
+#include "sagitta/certify.hpp"
+#include "sagitta/model.hpp"
+#include "sagitta/tessellation.hpp"
+
+#include <string>
+#include <vector>
+
+namespace sagitta::occt {
+
+struct CadOptions {
+  // Two patch sides that come from one shared B-rep edge are made bit-identical when their control
+  // points agree within this distance (model units); <= 0 picks 1e-6 of the model's box diagonal.
+  double snap_tolerance = 0.0;
+  // Planes, cylinders, cones, spheres and tori are converted to rational Bézier patches (exact).
+  bool convert_analytic = true;
+};
+
+// What happened to one face of the B-rep (faces in TopExp_Explorer order).
+struct FaceReport {
+  int face_index = 0;        // 0-based
+  std::string name;          // "Face 12": 1-based, as FreeCAD names faces
+  std::string surface_type;  // "BSplineSurface", "BezierSurface", "Plane", "Cylinder", ...
+  std::string status;        // "tessellated" | "trimmed" | "skipped"
+  std::string reason;        // why trimmed or skipped ("" when tessellated)
+  int first_patch = -1;      // tessellated: index into CadModel::model.patches; trimmed: into trimmed_patches
+  int patch_count = 0;       // Bézier patches the face's surface decomposes into (0 when skipped)
+};
+
+struct CadModel {
+  // Bézier patches of the untrimmed faces: what our schemes tessellate and the validator measures.
+  Model model;
+  // The (untrimmed) Bézier patches under each trimmed face, kept for counting and reporting.
+  std::vector<BezierPatch> trimmed_patches;
+  std::vector<FaceReport> faces;
+  std::vector<int> patch_face;  // per patch of `model`: its face_index
+  int faces_tessellated = 0;
+  int faces_trimmed = 0;
+  int faces_skipped = 0;
+  int bezier_patches = 0;       // model.patches + trimmed_patches
+  int snapped_sides = 0;        // patch sides snapped onto their neighbour's copy of a shared edge
+  double max_snap = 0.0;        // the largest distance a control point moved while snapping
+  int unmatched_splits = 0;     // shared B-rep edges whose two sides could not be made identical
+};
+
+// Reads .step/.stp, .iges/.igs or .brep/.brp (by extension). Throws InputError with one line naming
+// the file for unreadable, empty or malformed input, and when no face can be converted at all.
+CadModel read_cad_file(const std::string& path, const CadOptions& options = {});
+
+// The same for an OCCT BREP text (FreeCAD: Part.Shape.exportBrepToString()); `name` names it in messages.
+CadModel read_brep_string(const std::string& brep_text, const std::string& name, const CadOptions& options = {});
+
+// True for the extensions read_cad_file accepts (any case).
+bool is_cad_file(const std::string& path);
+
+struct PeerOptions {
+  double deflection = 1e-3;  // BRepMesh linear deflection (model units)
+  double angle = 0.5;        // BRepMesh angular deflection (radians)
+  bool relative = false;     // deflection relative to each edge's size (BRepMesh's "relative" mode)
+  CertifyOptions certify;
+  int reference_segments = 32;  // certify_external's reference, when the (u, v) route does not apply
+};
+
+struct PeerResult {
+  Tessellation mesh;          // OCCT's triangulation, vertices merged across faces by exact position
+  double mesh_seconds = 0.0;  // BRepMesh_IncrementalMesh only
+  size_t triangles = 0;
+  int faces_meshed = 0;       // faces that received a triangulation
+  int faces_without_mesh = 0;
+  // "bernstein": every face is one Bézier patch and each vertex carries its (patch, u, v), so the
+  // validator's own-mesh certificate applies; "reference": certify_external (no per-vertex patch).
+  std::string route;
+  double max_node_offset = 0.0;  // largest |node - S(u, v)| over OCCT's nodes (bernstein route)
+  DistanceReport distance;
+  double validate_seconds = 0.0;
+};
+
+// Meshes a patch model with OCCT: one Geom_BezierSurface face per patch, sewn so that neighbouring
+// faces share edges, then BRepMesh_IncrementalMesh; validates the result against `model`.
+PeerResult peer_mesh_model(const Model& model, const PeerOptions& options = {});
+
+// Meshes the untrimmed faces of a CAD file with OCCT and validates them against cad.model (the
+// route is "reference": a B-spline face spans many Bézier patches).
+PeerResult peer_mesh_cad_file(const std::string& path, const PeerOptions& options = {});
+
+}  // namespace sagitta::occt
