@@ -7,6 +7,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -129,9 +130,18 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
                      std::to_string(params.threshold));
   }
   const int P = params.level + 1;
-  const double rho = params.threshold;
   const size_t np = model.patches.size();
   if (topology.sides.size() != np * 4) throw InputError("internal: the topology does not belong to this model");
+  if (!params.patch_thresholds.empty() && params.patch_thresholds.size() != np) {
+    throw InputError("per-patch thresholds: " + std::to_string(params.patch_thresholds.size()) + " thresholds for " +
+                     std::to_string(np) + " patches");
+  }
+  for (double t : params.patch_thresholds) {
+    if (!std::isfinite(t) || t < 0.0) {
+      throw InputError("esc per-patch thresholds must be finite distances >= 0, got " + std::to_string(t));
+    }
+  }
+  auto patch_rho = [&](size_t p) { return params.patch_thresholds.empty() ? params.threshold : params.patch_thresholds[p]; };
 
   // 1. Patch sides: one decision per sample of each unique boundary curve, from that curve alone in
   // its canonical direction; the surface point is the shared vertex itself (fill_boundary evaluates
@@ -153,6 +163,8 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
   tbb::parallel_for(size_t{0}, topology.edges.size(), [&](size_t e) {
     const Topology::Edge& edge = topology.edges[e];
     const int n = layout.edge_segments[e];
+    double rho = patch_rho(edge.uses.front().patch);
+    for (const SideRef& use : edge.uses) rho = std::min(rho, patch_rho(use.patch));
     Vec3 S[kMaxEscLevel + 2];
     uint8_t ins[kMaxEscLevel + 2];
     for (int seg = 0; seg * P < n; ++seg) {
@@ -183,6 +195,7 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
   tbb::parallel_for(size_t{0}, np, [&](size_t p) {
     const BezierPatch& patch = model.patches[p];
     const uint32_t pid = static_cast<uint32_t>(p);
+    const double rho = patch_rho(p);
     Scratch& sc = scratch.local();
     Lattice lat;
     lat.P = P;

@@ -6,6 +6,7 @@
 #include <glm/geometric.hpp>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace sagitta {
@@ -31,34 +32,95 @@ uint64_t uniform_triangle_count(const Model& model, int segments) {
 }
 
 Tessellation tessellate_uniform(const Model& model, const Topology& topology, const UniformParams& params) {
-  const int n = params.segments;
-  if (n < 1) throw InputError("--segments must be >= 1, got " + std::to_string(n));
   const size_t np = model.patches.size();
-  const BoundaryLayout layout = layout_boundary(topology, [n](size_t) { return n; }, 0);
-  const uint64_t interior_per_patch = static_cast<uint64_t>(n - 1) * static_cast<uint64_t>(n - 1);
-  const uint64_t vertex_count = layout.end + interior_per_patch * np;
-  if (vertex_count > UINT32_MAX) throw InputError("the tessellation needs more than 2^32 vertices; lower the level");
+  // Segments of every patch's own grid.
+  std::vector<int> own(np, params.segments);
+  if (params.patch_levels.empty()) {
+    if (params.segments < 1) throw InputError("--segments must be >= 1, got " + std::to_string(params.segments));
+  } else {
+    if (params.patch_levels.size() != np) {
+      throw InputError("per-patch levels: " + std::to_string(params.patch_levels.size()) + " levels for " +
+                       std::to_string(np) + " patches");
+    }
+    for (size_t p = 0; p < np; ++p) own[p] = segments_for_level(params.patch_levels[p]);
+  }
+  // A boundary curve takes the finest grid among the patches using it (levels nest, so every
+  // user's own segment count divides it).
+  const BoundaryLayout layout = layout_boundary(
+      topology,
+      [&](size_t e) {
+        int n = 1;
+        for (const SideRef& use : topology.edges[e].uses) n = std::max(n, own[use.patch]);
+        return n;
+      },
+      0);
+
+  // Per patch: how many side samples fall on each of its grid's border cells (1 = not refined),
+  // whether it needs a centre vertex (a single cell with a refined side), its vertex and triangle
+  // ranges.
+  struct PatchPlan {
+    int n = 1;
+    int ratio[4] = {1, 1, 1, 1};  // per Side: side segments / n
+    bool centre = false;
+    uint64_t interior_base = 0;
+    uint64_t slot_base = 0;
+  };
+  std::vector<PatchPlan> plans(np);
+  uint64_t next_vertex = layout.end, next_slot = 0;
+  for (size_t p = 0; p < np; ++p) {
+    PatchPlan& plan = plans[p];
+    plan.n = own[p];
+    uint64_t extra = 0;
+    for (Side side : kAllSides) {
+      const Topology::SideInfo& info = topology.side(static_cast<uint32_t>(p), side);
+      if (info.collapsed) continue;
+      const int count = layout.edge_segments[static_cast<size_t>(info.edge)];
+      if (count % plan.n != 0) throw InputError("internal: side samples do not nest with the patch grid");
+      plan.ratio[static_cast<int>(side)] = count / plan.n;
+      extra += static_cast<uint64_t>(count - plan.n);
+    }
+    plan.centre = plan.n == 1 && extra > 0;
+    plan.interior_base = next_vertex;
+    next_vertex += static_cast<uint64_t>(plan.n - 1) * static_cast<uint64_t>(plan.n - 1) + (plan.centre ? 1 : 0);
+    plan.slot_base = next_slot;
+    // A cell polygon with V vertices gives V - 2 fan triangles (V around a centre vertex).
+    next_slot += 2ull * static_cast<uint64_t>(plan.n) * static_cast<uint64_t>(plan.n) + extra + (plan.centre ? 2 : 0);
+  }
+  if (next_vertex > UINT32_MAX) throw InputError("the tessellation needs more than 2^32 vertices; lower the level");
 
   Tessellation out;
-  out.positions.resize(vertex_count);
-  if (params.normals) out.normals.resize(vertex_count);
-  if (params.surface_data) out.surface_points.resize(vertex_count);
+  out.positions.resize(next_vertex);
+  if (params.normals) out.normals.resize(next_vertex);
+  if (params.surface_data) out.surface_points.resize(next_vertex);
   fill_boundary(model, topology, layout, out);
 
-  const uint64_t cells = static_cast<uint64_t>(n) * static_cast<uint64_t>(n);
-  std::vector<Triangle> slots(2 * cells * np);
+  std::vector<Triangle> slots(next_slot);
+  std::vector<std::array<Vec2, 3>> slot_uv(params.surface_data ? next_slot : 0);
   constexpr uint32_t kSkip = UINT32_MAX;
 
   tbb::parallel_for(size_t{0}, np, [&](size_t p) {
     const BezierPatch& patch = model.patches[p];
     const uint32_t pid = static_cast<uint32_t>(p);
-    const uint64_t interior_base = layout.end + interior_per_patch * p;
+    const PatchPlan& plan = plans[p];
+    const int n = plan.n;
+    const double nd = static_cast<double>(n);
+    const int* ratio = plan.ratio;
+    // Grid point (a, b) of the patch's own n x n grid.
     auto vertex = [&](int a, int b) -> uint32_t {
-      if (a == 0) return side_vertex(layout, topology, pid, Side::kU0, b);
-      if (a == n) return side_vertex(layout, topology, pid, Side::kU1, b);
-      if (b == 0) return side_vertex(layout, topology, pid, Side::kV0, a);
-      if (b == n) return side_vertex(layout, topology, pid, Side::kV1, a);
-      return static_cast<uint32_t>(interior_base + static_cast<uint64_t>(a - 1) * (n - 1) + (b - 1));
+      if (a == 0) return side_vertex(layout, topology, pid, Side::kU0, b * ratio[0]);
+      if (a == n) return side_vertex(layout, topology, pid, Side::kU1, b * ratio[1]);
+      if (b == 0) return side_vertex(layout, topology, pid, Side::kV0, a * ratio[2]);
+      if (b == n) return side_vertex(layout, topology, pid, Side::kV1, a * ratio[3]);
+      return static_cast<uint32_t>(plan.interior_base + static_cast<uint64_t>(a - 1) * (n - 1) + (b - 1));
+    };
+    auto store_vertex = [&](uint32_t id, const SurfacePointEval& e, double u, double v) {
+      out.positions[id] = e.position;
+      if (params.normals) {
+        const Vec3 cr = glm::cross(e.du, e.dv);
+        const double len = glm::length(cr);
+        out.normals[id] = (len > 0.0 && std::isfinite(len)) ? cr / len : surface_normal(patch, u, v);
+      }
+      if (params.surface_data) out.surface_points[id] = {pid, u, v};
     };
 
     // Interior samples: the matrix form, one u-contraction per grid row.
@@ -77,31 +139,78 @@ Tessellation tessellate_uniform(const Model& model, const Topology& topology, co
         eval.basis_row(du, u, a_row, da_row);
         eval.contract_u(a_row, da_row, row, drow);
         for (int b = 1; b < n; ++b) {
-          const double v = static_cast<double>(b) / n;
           const SurfacePointEval e = eval.finish(row, drow, &bv[static_cast<size_t>(b * (dv + 1))],
                                                  &dbv[static_cast<size_t>(b * (dv + 1))]);
-          const uint32_t id = vertex(a, b);
-          out.positions[id] = e.position;
-          if (params.normals) {
-            const Vec3 cr = glm::cross(e.du, e.dv);
-            const double len = glm::length(cr);
-            out.normals[id] = (len > 0.0 && std::isfinite(len)) ? cr / len : surface_normal(patch, u, v);
-          }
-          if (params.surface_data) out.surface_points[id] = {pid, u, v};
+          store_vertex(vertex(a, b), e, u, static_cast<double>(b) / n);
         }
       }
     }
+    const uint32_t centre_id = static_cast<uint32_t>(plan.interior_base);
+    if (plan.centre) store_vertex(centre_id, PatchEvaluator(patch).evaluate(0.5, 0.5), 0.5, 0.5);
 
-    // Two triangles per cell, oriented like the (u, v) square.
-    Triangle* t = &slots[2 * cells * p];
+    Triangle* t = &slots[plan.slot_base];
+    std::array<Vec2, 3>* tuv = params.surface_data ? &slot_uv[plan.slot_base] : nullptr;
+    auto emit = [&](uint32_t i0, uint32_t i1, uint32_t i2, const Vec2& q0, const Vec2& q1, const Vec2& q2) {
+      *t++ = (i0 == i1 || i1 == i2 || i0 == i2) ? Triangle{kSkip, 0, 0} : Triangle{i0, i1, i2};
+      if (tuv) *tuv++ = {q0, q1, q2};
+    };
+    struct Corner {
+      uint32_t id;
+      Vec2 uv;
+      bool inside;  // strictly inside the patch's parameter square
+    };
+    std::vector<Corner> polygon;
     for (int a = 0; a < n; ++a) {
-      for (int b = 0; b < n; ++b, t += 2) {
+      for (int b = 0; b < n; ++b) {
+        const Vec2 uv00(a / nd, b / nd), uv10((a + 1) / nd, b / nd), uv01(a / nd, (b + 1) / nd),
+            uv11((a + 1) / nd, (b + 1) / nd);
+        const bool refined = (a == 0 && ratio[0] > 1) || (a == n - 1 && ratio[1] > 1) ||
+                             (b == 0 && ratio[2] > 1) || (b == n - 1 && ratio[3] > 1);
         const uint32_t v00 = vertex(a, b), v10 = vertex(a + 1, b), v01 = vertex(a, b + 1), v11 = vertex(a + 1, b + 1);
-        t[0] = {v00, v10, v11};
-        t[1] = {v00, v11, v01};
-        for (int k = 0; k < 2; ++k) {
-          const Triangle& tri = t[k];
-          if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2]) t[k][0] = kSkip;
+        if (!refined) {  // two triangles, oriented like the (u, v) square
+          emit(v00, v10, v11, uv00, uv10, uv11);
+          emit(v00, v11, v01, uv00, uv11, uv01);
+          continue;
+        }
+        // The cell's boundary counter-clockwise in (u, v): v00 -> v10 -> v11 -> v01, with the side
+        // samples that fall strictly inside a cell edge lying on a refined patch side.
+        polygon.clear();
+        auto corner = [&](int ca, int cb, uint32_t id, const Vec2& uv) {
+          polygon.push_back({id, uv, ca > 0 && ca < n && cb > 0 && cb < n});
+        };
+        auto side_samples = [&](Side side, int cell, bool forward) {
+          const int r = ratio[static_cast<int>(side)];
+          const double count = static_cast<double>(r) * n;
+          for (int s = 1; s < r; ++s) {
+            const int k = cell * r + (forward ? s : r - s);
+            polygon.push_back({side_vertex(layout, topology, pid, side, k), side_uv(side, k / count), false});
+          }
+        };
+        corner(a, b, v00, uv00);
+        if (b == 0) side_samples(Side::kV0, a, true);
+        corner(a + 1, b, v10, uv10);
+        if (a + 1 == n) side_samples(Side::kU1, b, true);
+        corner(a + 1, b + 1, v11, uv11);
+        if (b + 1 == n) side_samples(Side::kV1, a, false);
+        corner(a, b + 1, v01, uv01);
+        if (a == 0) side_samples(Side::kU0, b, false);
+        const size_t count = polygon.size();
+        if (plan.centre) {  // single cell: fan around the centre vertex
+          for (size_t i = 0; i < count; ++i) {
+            const Corner& p0 = polygon[i];
+            const Corner& p1 = polygon[(i + 1) % count];
+            emit(centre_id, p0.id, p1.id, Vec2(0.5, 0.5), p0.uv, p1.uv);
+          }
+          continue;
+        }
+        // Fan from the corner inside the patch: it touches no refined side, so no fan triangle is flat.
+        size_t apex = 0;
+        while (!polygon[apex].inside) ++apex;
+        for (size_t i = 1; i + 1 < count; ++i) {
+          const Corner& c0 = polygon[apex];
+          const Corner& p0 = polygon[(apex + i) % count];
+          const Corner& p1 = polygon[(apex + i + 1) % count];
+          emit(c0.id, p0.id, p1.id, c0.uv, p0.uv, p1.uv);
         }
       }
     }
@@ -113,25 +222,17 @@ Tessellation tessellate_uniform(const Model& model, const Topology& topology, co
     out.triangle_patch.reserve(slots.size());
     out.triangle_uv.reserve(slots.size());
   }
-  const double nd = static_cast<double>(n);
+  size_t patch = 0;
   for (size_t s = 0; s < slots.size(); ++s) {
+    while (patch + 1 < np && s >= plans[patch + 1].slot_base) ++patch;
     if (slots[s][0] == kSkip) {
       ++out.degenerate_triangles;
       continue;
     }
     out.triangles.push_back(slots[s]);
     if (params.surface_data) {
-      const size_t p = s / (2 * cells);
-      const size_t cell = (s % (2 * cells)) / 2;
-      const double a = static_cast<double>(cell / n), b = static_cast<double>(cell % n);
-      const Vec2 uv00(a / nd, b / nd), uv10((a + 1) / nd, b / nd), uv01(a / nd, (b + 1) / nd),
-          uv11((a + 1) / nd, (b + 1) / nd);
-      out.triangle_patch.push_back(static_cast<uint32_t>(p));
-      if (s % 2 == 0) {
-        out.triangle_uv.push_back({uv00, uv10, uv11});
-      } else {
-        out.triangle_uv.push_back({uv00, uv11, uv01});
-      }
+      out.triangle_patch.push_back(static_cast<uint32_t>(patch));
+      out.triangle_uv.push_back(slot_uv[s]);
     }
   }
   return out;

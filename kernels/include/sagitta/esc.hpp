@@ -8,6 +8,7 @@
 #include "sagitta/tessellation.hpp"
 
 #include <cstdint>
+#include <vector>
 
 namespace sagitta {
 
@@ -20,6 +21,10 @@ struct EscParams {
   // (nested) vertices keep the edge's polyline within rho of the surface at all L candidates,
   // instead of inserting exactly the candidates that failed. See docs/ESC.md.
   bool per_edge_levels = false;
+  // Optional per-patch thresholds (one per patch; empty: every patch uses `threshold`). A patch side
+  // shared by several patches is decided with the smallest of their thresholds, so the decision
+  // stays one per boundary curve (crack-free) and every patch keeps at least its own refinement.
+  std::vector<double> patch_thresholds;
   bool normals = true;
   bool surface_data = true;  // fill surface_points, triangle_patch, triangle_uv (needed to validate)
 };
@@ -42,7 +47,8 @@ uint64_t esc_full_triangle_count(const Model& model, int level);
 // Triangles collapsed by a collapsed patch side are counted in degenerate_triangles, not emitted;
 // only vertices that some triangle uses are output. Each triangle is oriented like its patch's
 // (u, v) square (normal du x dv). Patches run in parallel; the output does not depend on the thread
-// count. Throws InputError for a level outside 0..kMaxEscLevel or a negative / non-finite threshold.
+// count. Throws InputError for a level outside 0..kMaxEscLevel, a negative / non-finite threshold,
+// or patch_thresholds of the wrong size.
 Tessellation tessellate_esc(const Model& model, const Topology& topology, const EscParams& params,
                             EscStats* stats = nullptr);
 

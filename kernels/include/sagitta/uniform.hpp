@@ -5,10 +5,16 @@
 #include "sagitta/model.hpp"
 #include "sagitta/tessellation.hpp"
 
+#include <vector>
+
 namespace sagitta {
 
 struct UniformParams {
   int segments = 8;        // N >= 1 segments per patch side
+  // Optional per-patch levels (one per patch; empty: every patch uses `segments`). Patch p is sampled
+  // on a 2^L x 2^L grid; a side shared with a finer neighbour takes the neighbour's samples and the
+  // patch stitches its border cells to them (see tessellate_uniform).
+  std::vector<int> patch_levels;
   bool normals = true;
   bool surface_data = true;  // fill surface_points, triangle_patch, triangle_uv (needed to validate)
 };
@@ -28,6 +34,12 @@ uint64_t uniform_triangle_count(const Model& model, int segments);
 // counted in degenerate_triangles and not emitted; each triangle is oriented like its patch's
 // (u, v) square (normal du x dv). Patches are processed in parallel; the output does not depend
 // on the thread count.
+// With patch_levels: a shared side uses the finest level among the patches using it (one segment
+// count per unique boundary curve, so neighbours still share vertices exactly); a patch's grid cell
+// whose side holds more samples than the cell's own corners is triangulated as a fan from its
+// corner inside the patch (or from an extra vertex at the parameter centre when the patch is a
+// single cell), so there are no T-junctions. Throws InputError when patch_levels has the wrong size
+// or a level outside 0..kMaxUniformLevel.
 Tessellation tessellate_uniform(const Model& model, const Topology& topology, const UniformParams& params);
 
 }  // namespace sagitta
