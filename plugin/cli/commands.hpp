@@ -2,6 +2,7 @@
 #pragma once
 
 #include "sagitta/model.hpp"
+#include "sagitta/occt/cad.hpp"
 #include "sagitta/tessellation.hpp"
 
 #include <CLI/CLI.hpp>
@@ -22,9 +23,15 @@ struct Command {
 Command register_tessellate(CLI::App& app);
 Command register_run(CLI::App& app);
 Command register_validate(CLI::App& app);
+Command register_peer(CLI::App& app);
 
 // Loads a patch model: "" or "default" is the built-in default model; otherwise by extension.
-Model load_model(const std::string& input);
+// CAD files (.step, .iges, .brep) give the Bézier patches of their untrimmed faces, and fill
+// `cad_stats` (when given) with faces, faces_trimmed, faces_skipped (with reasons), bezier_patches.
+Model load_model(const std::string& input, nlohmann::json* cad_stats = nullptr);
+
+// The CAD stats fields of a CAD model (see load_model).
+nlohmann::json cad_json(const occt::CadModel& cad);
 
 // Refuses to write an output onto one of the inputs.
 void check_output_is_not_input(const std::string& output, const std::string& input);

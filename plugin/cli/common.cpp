@@ -3,15 +3,47 @@
 #include "sagitta/fixtures.hpp"
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/io/model_io.hpp"
+#include "sagitta/occt/cad.hpp"
 
 #include <filesystem>
 
 namespace sagitta::cli {
 
-Model load_model(const std::string& input) {
+Model load_model(const std::string& input, nlohmann::json* cad_stats) {
   if (input.empty() || input == "default") return fixtures::default_model();
   if (!std::filesystem::exists(input)) throw InputError(input + ": no such file");
+  if (occt::is_cad_file(input)) {
+    occt::CadModel cad = occt::read_cad_file(input);
+    if (cad_stats) *cad_stats = cad_json(cad);
+    if (cad.model.patches.empty()) {
+      throw InputError(input + ": no untrimmed face to tessellate (" + std::to_string(cad.faces_trimmed) + " trimmed, " +
+                       std::to_string(cad.faces_skipped) + " skipped; see docs/CAD.md)");
+    }
+    return std::move(cad.model);
+  }
   return io::read_patch_model(input);
+}
+
+nlohmann::json cad_json(const occt::CadModel& cad) {
+  nlohmann::json j;
+  j["faces"] = cad.faces.size();
+  j["faces_tessellated"] = cad.faces_tessellated;
+  j["faces_trimmed"] = cad.faces_trimmed;
+  j["faces_skipped"] = cad.faces_skipped;
+  j["bezier_patches"] = cad.bezier_patches;
+  j["bezier_patches_tessellated"] = cad.model.patches.size();
+  j["snap_tolerance"] = cad.snap_tolerance;
+  j["snapped_patches"] = cad.snapped_patches;
+  j["max_snap"] = cad.max_snap;
+  nlohmann::json trimmed = nlohmann::json::array(), skipped = nlohmann::json::array();
+  for (const occt::FaceReport& f : cad.faces) {
+    const nlohmann::json face = {{"face", f.name}, {"surface", f.surface_type}, {"reason", f.reason}, {"bezier_patches", f.patch_count}};
+    if (f.status == "trimmed") trimmed.push_back(face);
+    if (f.status == "skipped") skipped.push_back(face);
+  }
+  j["trimmed"] = trimmed;
+  j["skipped"] = skipped;
+  return j;
 }
 
 void check_output_is_not_input(const std::string& output, const std::string& input) {

@@ -50,9 +50,11 @@ void run_tessellate(const TessellateOptions& o) {
     run_tessellate_mesh(o);
     return;
   }
-  Model model = replicate(load_model(o.input), o.copies);
+  nlohmann::json cad;
+  Model model = replicate(load_model(o.input, &cad), o.copies);
   const Topology topology = build_topology(model);
   nlohmann::json stats;
+  if (!cad.is_null()) stats.update(cad);
   stats["input"] = o.input.empty() ? "default" : o.input;
   stats["copies"] = o.copies;
   stats["patches"] = model.patches.size();
@@ -73,6 +75,10 @@ void run_tessellate(const TessellateOptions& o) {
   std::cout << stats["scheme"].get<std::string>() << ": " << model.patches.size() << " patches -> "
             << mesh.triangles.size() << " triangles (" << mesh.degenerate_triangles << " degenerate not emitted), "
             << mesh.positions.size() << " vertices in " << stats["seconds"].get<double>() << " s\n";
+  if (!cad.is_null()) {
+    std::cout << "faces: " << cad["faces"] << " (" << cad["faces_tessellated"] << " tessellated, " << cad["faces_trimmed"]
+              << " trimmed, " << cad["faces_skipped"] << " skipped; listed in --stats)\n";
+  }
 }
 
 }  // namespace

@@ -80,9 +80,11 @@ int run_validate(const ValidateOptions& o) {
   check_output_is_not_input(o.error_ply, o.mesh);
   if (o.max_depth < 0 || o.max_depth > 10) throw InputError("--max-depth must be in 0..10");
   const Stopwatch total;
-  const Model model = load_model(o.input);
+  nlohmann::json cad;
+  const Model model = load_model(o.input, &cad);
   const Topology topology = build_topology(model);
   nlohmann::json doc;
+  if (!cad.is_null()) doc.update(cad);
   doc["input"] = o.input.empty() ? "default" : o.input;
   doc["patches"] = model.patches.size();
   Tessellation mesh;

@@ -14,7 +14,8 @@ namespace sagitta::occt {
 
 struct CadOptions {
   // Two patch sides that come from one shared B-rep edge are made bit-identical when their control
-  // points agree within this distance (model units); <= 0 picks 1e-6 of the model's box diagonal.
+  // points agree within this distance (model units); <= 0 picks the largest edge tolerance of the
+  // B-rep, kept between 1e-6 and 1e-5 of the model's box diagonal.
   double snap_tolerance = 0.0;
   // Planes, cylinders, cones, spheres and tori are converted to rational Bézier patches (exact).
   bool convert_analytic = true;
@@ -42,9 +43,9 @@ struct CadModel {
   int faces_trimmed = 0;
   int faces_skipped = 0;
   int bezier_patches = 0;       // model.patches + trimmed_patches
-  int snapped_sides = 0;        // patch sides snapped onto their neighbour's copy of a shared edge
+  int snapped_patches = 0;      // patches with a boundary control point snapped onto a neighbour face's copy
   double max_snap = 0.0;        // the largest distance a control point moved while snapping
-  int unmatched_splits = 0;     // shared B-rep edges whose two sides could not be made identical
+  double snap_tolerance = 0.0;  // the tolerance used
 };
 
 // Reads .step/.stp, .iges/.igs or .brep/.brp (by extension). Throws InputError with one line naming
@@ -57,20 +58,27 @@ CadModel read_brep_string(const std::string& brep_text, const std::string& name,
 // True for the extensions read_cad_file accepts (any case).
 bool is_cad_file(const std::string& path);
 
+// The OpenCASCADE version this was built against ("7.6.3").
+std::string occt_version();
+
 struct PeerOptions {
   double deflection = 1e-3;  // BRepMesh linear deflection (model units)
   double angle = 0.5;        // BRepMesh angular deflection (radians)
   bool relative = false;     // deflection relative to each edge's size (BRepMesh's "relative" mode)
   CertifyOptions certify;
-  int reference_segments = 32;  // certify_external's reference, when the (u, v) route does not apply
+  // certify_external's reference segments per patch side when the (u, v) route does not apply;
+  // 0 picks about 2 million reference triangles in all (between 2 and 32 segments per side).
+  int reference_segments = 0;
 };
 
 struct PeerResult {
   Tessellation mesh;          // OCCT's triangulation, vertices merged across faces by exact position
   double mesh_seconds = 0.0;  // BRepMesh_IncrementalMesh only
-  size_t triangles = 0;
-  int faces_meshed = 0;       // faces that received a triangulation
+  size_t triangles = 0;            // all triangles OCCT made
+  size_t triangles_validated = 0;  // those in `mesh`: the faces the validator can measure
+  int faces_meshed = 0;            // faces that received a triangulation
   int faces_without_mesh = 0;
+  int faces_not_validated = 0;     // trimmed or skipped faces (CAD input): meshed by OCCT, not in `mesh`
   // "bernstein": every face is one Bézier patch and each vertex carries its (patch, u, v), so the
   // validator's own-mesh certificate applies; "reference": certify_external (no per-vertex patch).
   std::string route;
@@ -83,8 +91,10 @@ struct PeerResult {
 // faces share edges, then BRepMesh_IncrementalMesh; validates the result against `model`.
 PeerResult peer_mesh_model(const Model& model, const PeerOptions& options = {});
 
-// Meshes the untrimmed faces of a CAD file with OCCT and validates them against cad.model (the
-// route is "reference": a B-spline face spans many Bézier patches).
+// Meshes a CAD file's whole shape with OCCT and validates the triangles of its untrimmed faces against
+// cad.model (route "reference": a B-spline face spans many Bézier patches). Trimmed and skipped faces
+// are meshed and counted but not validated (faces_not_validated).
 PeerResult peer_mesh_cad_file(const std::string& path, const PeerOptions& options = {});
+PeerResult peer_mesh_brep_string(const std::string& brep_text, const std::string& name, const PeerOptions& options = {});
 
 }  // namespace sagitta::occt

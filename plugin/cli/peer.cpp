@@ -1,0 +1,124 @@
+// `sagitta peer occt`: OCCT's BRepMesh_IncrementalMesh on the same input, measured by our validator,
+// so triangles, time and certified error compare with our schemes in one command (docs/CAD.md).
+#include "commands.hpp"
+
+#include "sagitta/io/mesh_io.hpp"
+#include "sagitta/mesh_check.hpp"
+#include "sagitta/occt/cad.hpp"
+
+#include <cmath>
+#include <iostream>
+#include <memory>
+
+namespace sagitta::cli {
+
+namespace {
+
+struct PeerCliOptions {
+  std::string input;
+  double deflection = 1e-3;
+  double angle = 0.5;
+  bool relative = false;
+  int max_depth = 8;
+  int reference_segments = 0;
+  std::string out;
+  std::string json;
+};
+
+nlohmann::json finite_or_null(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
+nlohmann::json peer_interval_json(const DistanceInterval& d) {
+  return {{"lower", d.lower}, {"upper", finite_or_null(d.upper)}, {"upper_certified", d.certified}};
+}
+
+void run_peer_occt(const PeerCliOptions& o) {
+  check_output_is_not_input(o.out, o.input);
+  check_output_is_not_input(o.json, o.input);
+  if (o.max_depth < 0 || o.max_depth > 10) throw InputError("--max-depth must be in 0..10");
+  const Stopwatch total;
+  occt::PeerOptions options;
+  options.deflection = o.deflection;
+  options.angle = o.angle;
+  options.relative = o.relative;
+  options.certify.max_depth = o.max_depth;
+  options.reference_segments = o.reference_segments;
+  nlohmann::json doc;
+  doc["input"] = o.input.empty() ? "default" : o.input;
+  Model model;
+  occt::PeerResult r;
+  if (occt::is_cad_file(o.input)) {
+    const occt::CadModel cad = occt::read_cad_file(o.input);
+    doc.update(cad_json(cad));
+    model = cad.model;
+    r = occt::peer_mesh_cad_file(o.input, options);
+  } else {
+    model = load_model(o.input);
+    model.name = o.input.empty() ? "default" : o.input;
+    r = occt::peer_mesh_model(model, options);
+  }
+  const Topology topology = build_topology(model);
+  const TopologyReport topo = check_mesh_topology(r.mesh, &model, &topology);
+
+  doc["mesher"] = "BRepMesh_IncrementalMesh (OCCT " + occt::occt_version() + ")";
+  doc["deflection"] = o.deflection;
+  doc["angle"] = o.angle;
+  doc["relative"] = o.relative;
+  doc["patches"] = model.patches.size();
+  doc["triangles"] = r.triangles;
+  doc["triangles_validated"] = r.triangles_validated;
+  doc["vertices"] = r.mesh.positions.size();
+  doc["faces_meshed"] = r.faces_meshed;
+  doc["faces_without_mesh"] = r.faces_without_mesh;
+  doc["faces_not_validated"] = r.faces_not_validated;
+  doc["mesh_seconds"] = r.mesh_seconds;
+  doc["route"] = r.route;
+  if (r.route == "bernstein") doc["max_node_offset"] = r.max_node_offset;
+  doc["hausdorff"] = peer_interval_json(r.distance.hausdorff);
+  doc["mesh_to_surface"] = peer_interval_json(r.distance.mesh_to_surface);
+  doc["surface_to_mesh"] = peer_interval_json(r.distance.surface_to_mesh);
+  doc["certified"] = r.distance.hausdorff.certified;
+  doc["coverage_ok"] = r.distance.coverage_ok;
+  if (!r.distance.coverage_note.empty()) doc["coverage_note"] = r.distance.coverage_note;
+  doc["validate_seconds"] = r.validate_seconds;
+  doc["topology"] = {{"open_edges", topo.open_edges},     {"model_boundary_edges", topo.model_boundary_edges},
+                     {"crack_edges", topo.crack_edges},   {"t_junctions", topo.t_junctions},
+                     {"non_manifold_edges", topo.non_manifold_edges},
+                     {"inconsistent_orientation_edges", topo.inconsistent_orientation_edges},
+                     {"degenerate_triangles", topo.degenerate_triangles}};
+  if (!o.out.empty()) {
+    io::write_mesh(r.mesh, o.out);
+    doc["output"] = o.out;
+  }
+  doc["total_seconds"] = total.seconds();
+  if (!o.json.empty()) write_json(o.json, doc);
+  std::cout << "occt: deflection " << o.deflection << ", angle " << o.angle << ": " << r.triangles << " triangles in "
+            << r.mesh_seconds << " s; hausdorff in [" << r.distance.hausdorff.lower << ", " << r.distance.hausdorff.upper << "]"
+            << (r.distance.hausdorff.certified ? "" : " (upper not certified)") << " (" << r.route << " route"
+            << (r.faces_not_validated ? ", " + std::to_string(r.faces_not_validated) + " trimmed/skipped faces not validated" : "")
+            << "); cracks " << topo.crack_edges << ", T-junctions " << topo.t_junctions << "\n";
+}
+
+}  // namespace
+
+Command register_peer(CLI::App& app) {
+  auto o = std::make_shared<PeerCliOptions>();
+  CLI::App* peer = app.add_subcommand("peer", "Mesh the input with another tessellator and certify its distance to the exact surface");
+  peer->require_subcommand(1);
+  CLI::App* cmd = peer->add_subcommand(
+      "occt", "OCCT's BRepMesh_IncrementalMesh: patches become Geom_BezierSurface faces (sewn); CAD files are meshed as they are");
+  cmd->add_option("input", o->input, "Patch file (.bpt, .rib) or CAD file (.step, .stp, .iges, .igs, .brep, .brp)")->required();
+  cmd->add_option("--deflection", o->deflection, "BRepMesh linear deflection (model units)")->capture_default_str();
+  cmd->add_option("--angle", o->angle, "BRepMesh angular deflection (radians)")->capture_default_str();
+  cmd->add_flag("--relative", o->relative, "Deflection relative to each edge's size");
+  cmd->add_option("--max-depth", o->max_depth, "Validator subdivision budget per triangle (0..10)")->capture_default_str();
+  cmd->add_option("--reference-segments", o->reference_segments,
+                  "Reference segments per patch side when the mesh has no per-vertex patch (0: automatic)")
+      ->check(CLI::Range(0, 1024));
+  cmd->add_option("--out", o->out, "OCCT's mesh (the validated faces): .obj, .ply or .stl, written atomically");
+  cmd->add_option("--json", o->json, "Report: triangles, mesh_seconds, route, hausdorff {lower, upper}, topology, CAD face counts");
+  return {peer, [o, cmd] {
+            if (cmd->parsed()) run_peer_occt(*o);
+          }};
+}
+
+}  // namespace sagitta::cli

@@ -1,0 +1,383 @@
+// Reading STEP / IGES / BREP with OCCT and turning faces into Bézier patches (see docs/CAD.md).
+#include "sagitta/occt/cad.hpp"
+
+#include "occt_shape.hpp"
+
+#include "sagitta/io/model_io.hpp"
+
+#include <glm/geometric.hpp>
+
+#include <BRepTools.hxx>
+#include <BRep_Builder.hxx>
+#include <BRep_Tool.hxx>
+#include <GeomConvert.hxx>
+#include <GeomConvert_BSplineSurfaceToBezierSurface.hxx>
+#include <Geom2d_Curve.hxx>
+#include <Geom_BSplineSurface.hxx>
+#include <Geom_BezierSurface.hxx>
+#include <Geom_ConicalSurface.hxx>
+#include <Geom_CylindricalSurface.hxx>
+#include <Geom_OffsetSurface.hxx>
+#include <Geom_Plane.hxx>
+#include <Geom_RectangularTrimmedSurface.hxx>
+#include <Geom_SphericalSurface.hxx>
+#include <Geom_SurfaceOfLinearExtrusion.hxx>
+#include <Geom_SurfaceOfRevolution.hxx>
+#include <Geom_ToroidalSurface.hxx>
+#include <IFSelect_ReturnStatus.hxx>
+#include <IGESControl_Reader.hxx>
+#include <Message.hxx>
+#include <Message_Messenger.hxx>
+#include <STEPControl_Reader.hxx>
+#include <Standard_Version.hxx>
+#include <Standard_Failure.hxx>
+#include <TColGeom_Array2OfBezierSurface.hxx>
+#include <TColStd_Array2OfReal.hxx>
+#include <TColgp_Array2OfPnt.hxx>
+#include <TopExp.hxx>
+#include <TopExp_Explorer.hxx>
+#include <TopTools_IndexedMapOfShape.hxx>
+#include <TopoDS.hxx>
+#include <TopoDS_Edge.hxx>
+#include <TopoDS_Face.hxx>
+#include <TopoDS_Wire.hxx>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+#include <unordered_map>
+
+namespace sagitta::occt {
+
+namespace {
+
+// One Bézier patch from an OCCT Bézier surface: poles (i, j) with i the U index become row i.
+BezierPatch to_patch(const Handle(Geom_BezierSurface)& b) {
+  BezierPatch p;
+  p.degree_u = b->UDegree();
+  p.degree_v = b->VDegree();
+  const bool rational = b->IsURational() || b->IsVRational();
+  for (int i = 1; i <= b->NbUPoles(); ++i) {
+    for (int j = 1; j <= b->NbVPoles(); ++j) {
+      const gp_Pnt q = b->Pole(i, j);
+      p.points.push_back({q.X(), q.Y(), q.Z()});
+      if (rational) p.weights.push_back(b->Weight(i, j));
+    }
+  }
+  return p;
+}
+
+const char* surface_type_name(const Handle(Geom_Surface)& s) {
+  if (s->IsKind(STANDARD_TYPE(Geom_BSplineSurface))) return "BSplineSurface";
+  if (s->IsKind(STANDARD_TYPE(Geom_BezierSurface))) return "BezierSurface";
+  if (s->IsKind(STANDARD_TYPE(Geom_Plane))) return "Plane";
+  if (s->IsKind(STANDARD_TYPE(Geom_CylindricalSurface))) return "Cylinder";
+  if (s->IsKind(STANDARD_TYPE(Geom_ConicalSurface))) return "Cone";
+  if (s->IsKind(STANDARD_TYPE(Geom_SphericalSurface))) return "Sphere";
+  if (s->IsKind(STANDARD_TYPE(Geom_ToroidalSurface))) return "Torus";
+  if (s->IsKind(STANDARD_TYPE(Geom_SurfaceOfRevolution))) return "SurfaceOfRevolution";
+  if (s->IsKind(STANDARD_TYPE(Geom_SurfaceOfLinearExtrusion))) return "SurfaceOfExtrusion";
+  if (s->IsKind(STANDARD_TYPE(Geom_OffsetSurface))) return "OffsetSurface";
+  return s->DynamicType()->Name();
+}
+
+// True when the face's domain is the whole rectangle of its UV bounds: one wire whose p-curves all
+// run along that rectangle's border (checked at 9 points per edge, relative tolerance 1e-9).
+bool domain_is_rectangle(const TopoDS_Face& face, double u0, double u1, double v0, double v1) {
+  int wires = 0;
+  for (TopExp_Explorer w(face, TopAbs_WIRE); w.More(); w.Next()) ++wires;
+  if (wires != 1) return false;
+  const double tu = 1e-9 * std::max(1.0, u1 - u0), tv = 1e-9 * std::max(1.0, v1 - v0);
+  for (TopExp_Explorer e(face, TopAbs_EDGE); e.More(); e.Next()) {
+    const TopoDS_Edge& edge = TopoDS::Edge(e.Current());
+    double first = 0.0, last = 0.0;
+    const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(edge, face, first, last);
+    if (pc.IsNull()) return false;
+    for (int k = 0; k <= 8; ++k) {
+      const gp_Pnt2d q = pc->Value(first + (last - first) * k / 8.0);
+      const bool on_border = std::abs(q.X() - u0) <= tu || std::abs(q.X() - u1) <= tu || std::abs(q.Y() - v0) <= tv ||
+                             std::abs(q.Y() - v1) <= tv;
+      if (!on_border) return false;
+    }
+  }
+  return true;
+}
+
+// The face's surface over [u0, u1] x [v0, v1] as Bézier patches (exact), or a reason why not.
+std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1, double v0, double v1, std::string& reason) {
+  while (s->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface))) {
+    s = Handle(Geom_RectangularTrimmedSurface)::DownCast(s)->BasisSurface();
+  }
+  if (!std::isfinite(u0) || !std::isfinite(u1) || !std::isfinite(v0) || !std::isfinite(v1) || !(u0 < u1) || !(v0 < v1)) {
+    reason = "the face has no finite, non-empty parameter range";
+    return {};
+  }
+  Handle(Geom_BSplineSurface) bs;
+  if (s->IsKind(STANDARD_TYPE(Geom_BezierSurface))) {
+    const Handle(Geom_BezierSurface) b = Handle(Geom_BezierSurface)::DownCast(s);
+    if (b->UDegree() > kMaxDegree || b->VDegree() > kMaxDegree) {
+      reason = "degree above 25";
+      return {};
+    }
+    if (u0 <= 0.0 + 1e-12 && u1 >= 1.0 - 1e-12 && v0 <= 1e-12 && v1 >= 1.0 - 1e-12) return {to_patch(b)};
+    bs = GeomConvert::SurfaceToBSplineSurface(b);
+  } else if (s->IsKind(STANDARD_TYPE(Geom_BSplineSurface))) {
+    bs = Handle(Geom_BSplineSurface)::DownCast(s->Copy());
+  } else if (s->IsKind(STANDARD_TYPE(Geom_OffsetSurface))) {
+    reason = "offset surface: no exact rational form";
+    return {};
+  } else {
+    // Elementary surfaces, revolutions and extrusions of conics or splines: OCCT's conversion is exact
+    // (rational B-spline, parametrised by tan(theta/2) for the circular directions). The face's UV
+    // bounds may exceed a period or the surface's own bounds by a tolerance; clamp them first.
+    double a, b, c, d;
+    s->Bounds(a, b, c, d);
+    if (s->IsUPeriodic()) u1 = std::min(u1, u0 + s->UPeriod());
+    else u0 = std::max(u0, a), u1 = std::min(u1, b);
+    if (s->IsVPeriodic()) v1 = std::min(v1, v0 + s->VPeriod());
+    else v0 = std::max(v0, c), v1 = std::min(v1, d);
+    bs = GeomConvert::SurfaceToBSplineSurface(new Geom_RectangularTrimmedSurface(s, u0, u1, v0, v1));
+    if (!bs.IsNull()) bs->Bounds(u0, u1, v0, v1);
+  }
+  if (bs.IsNull()) {
+    reason = "OCCT could not convert the surface to B-spline form";
+    return {};
+  }
+  if (bs->UDegree() > kMaxDegree || bs->VDegree() > kMaxDegree) {
+    reason = "degree above 25";
+    return {};
+  }
+  if (bs->IsUPeriodic()) bs->SetUNotPeriodic();
+  if (bs->IsVPeriodic()) bs->SetVNotPeriodic();
+  double a, b, c, d;
+  bs->Bounds(a, b, c, d);
+  u0 = std::max(u0, a), u1 = std::min(u1, b), v0 = std::max(v0, c), v1 = std::min(v1, d);
+  const bool whole = u0 == a && u1 == b && v0 == c && v1 == d;
+  GeomConvert_BSplineSurfaceToBezierSurface split =
+      whole ? GeomConvert_BSplineSurfaceToBezierSurface(bs)
+            : GeomConvert_BSplineSurfaceToBezierSurface(bs, u0, u1, v0, v1, 1e-12 * std::max(1.0, std::max(u1 - u0, v1 - v0)));
+  TColGeom_Array2OfBezierSurface patches(1, split.NbUPatches(), 1, split.NbVPatches());
+  split.Patches(patches);
+  std::vector<BezierPatch> out;
+  for (int i = patches.LowerRow(); i <= patches.UpperRow(); ++i) {
+    for (int j = patches.LowerCol(); j <= patches.UpperCol(); ++j) out.push_back(to_patch(patches(i, j)));
+  }
+  return out;
+}
+
+// Makes boundary control points of patches from different faces bit-identical when they agree within
+// `tol`: each point joins the first representative found within tol (grid hash), and every point of a
+// cluster that spans two or more faces is replaced by the representative. Interior points are untouched.
+void snap_shared_sides(CadModel& cad, double tol) {
+  struct Ref { size_t patch, index; };
+  std::vector<Vec3> reps;
+  std::vector<int> rep_face;           // the first face seen, or -1 once a second face joined
+  std::vector<std::vector<Ref>> members;
+  std::unordered_map<int64_t, std::vector<size_t>> grid;
+  auto cell_key = [](int64_t x, int64_t y, int64_t z) { return (x * 73856093) ^ (y * 19349663) ^ (z * 83492791); };
+  auto cell = [&](double c) { return static_cast<int64_t>(std::floor(c / tol)); };
+  for (size_t p = 0; p < cad.model.patches.size(); ++p) {
+    BezierPatch& patch = cad.model.patches[p];
+    const int face = cad.patch_face[p];
+    for (int i = 0; i < patch.rows(); ++i) {
+      for (int j = 0; j < patch.cols(); ++j) {
+        if (i != 0 && i != patch.degree_u && j != 0 && j != patch.degree_v) continue;
+        const Vec3 x = patch.at(i, j);
+        const int64_t cx = cell(x.x), cy = cell(x.y), cz = cell(x.z);
+        size_t found = SIZE_MAX;
+        for (int64_t dx = -1; dx <= 1 && found == SIZE_MAX; ++dx)
+          for (int64_t dy = -1; dy <= 1 && found == SIZE_MAX; ++dy)
+            for (int64_t dz = -1; dz <= 1 && found == SIZE_MAX; ++dz) {
+              auto it = grid.find(cell_key(cx + dx, cy + dy, cz + dz));
+              if (it == grid.end()) continue;
+              for (size_t r : it->second) {
+                const Vec3 d = reps[r] - x;
+                if (std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)}) <= tol) { found = r; break; }
+              }
+            }
+        if (found == SIZE_MAX) {
+          found = reps.size();
+          reps.push_back(x);
+          rep_face.push_back(face);
+          members.emplace_back();
+          grid[cell_key(cx, cy, cz)].push_back(found);
+        } else if (rep_face[found] != face) {
+          rep_face[found] = -1;
+        }
+        members[found].push_back({p, static_cast<size_t>(i * patch.cols() + j)});
+      }
+    }
+  }
+  std::vector<char> touched(cad.model.patches.size(), 0);
+  for (size_t r = 0; r < reps.size(); ++r) {
+    if (rep_face[r] != -1) continue;
+    for (const Ref& m : members[r]) {
+      Vec3& x = cad.model.patches[m.patch].points[m.index];
+      if (x == reps[r]) continue;
+      cad.max_snap = std::max(cad.max_snap, glm::length(x - reps[r]));
+      x = reps[r];
+      touched[m.patch] = 1;
+    }
+  }
+  cad.snapped_patches = static_cast<int>(std::count(touched.begin(), touched.end(), 1));
+}
+
+// The largest tolerance OCCT records on an edge of the shape: the B-rep's own claim of how far the
+// two faces' copies of an edge may differ.
+double max_edge_tolerance(const TopoDS_Shape& shape) {
+  double tol = 0.0;
+  for (TopExp_Explorer e(shape, TopAbs_EDGE); e.More(); e.Next()) tol = std::max(tol, BRep_Tool::Tolerance(TopoDS::Edge(e.Current())));
+  return tol;
+}
+
+void silence_occt_messages() {
+  static const bool done = [] {
+    Message::DefaultMessenger()->ChangePrinters().Clear();
+    return true;
+  }();
+  (void)done;
+}
+
+}  // namespace
+
+std::string occt_version() { return OCC_VERSION_COMPLETE; }
+
+bool is_cad_file(const std::string& path) {
+  const std::string ext = io::file_extension(path);
+  return ext == ".step" || ext == ".stp" || ext == ".iges" || ext == ".igs" || ext == ".brep" || ext == ".brp";
+}
+
+TopoDS_Shape read_cad_shape(const std::string& path) {
+  silence_occt_messages();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw InputError(path + ": no such file");
+  if (std::filesystem::file_size(path, ec) == 0) throw InputError(path + ": empty file");
+  const std::string ext = io::file_extension(path);
+  TopoDS_Shape shape;
+  try {
+    if (ext == ".step" || ext == ".stp") {
+      STEPControl_Reader reader;
+      if (reader.ReadFile(path.c_str()) != IFSelect_RetDone) throw InputError(path + ": not a readable STEP file");
+      if (reader.TransferRoots() == 0) throw InputError(path + ": the STEP file holds no transferable shape");
+      shape = reader.OneShape();
+    } else if (ext == ".iges" || ext == ".igs") {
+      IGESControl_Reader reader;
+      if (reader.ReadFile(path.c_str()) != IFSelect_RetDone) throw InputError(path + ": not a readable IGES file");
+      if (reader.TransferRoots() == 0) throw InputError(path + ": the IGES file holds no transferable shape");
+      shape = reader.OneShape();
+    } else if (ext == ".brep" || ext == ".brp") {
+      BRep_Builder builder;
+      if (!BRepTools::Read(shape, path.c_str(), builder)) throw InputError(path + ": not a readable OCCT BREP file");
+    } else {
+      throw InputError(path + ": unknown CAD extension '" + ext + "' (expected .step, .stp, .iges, .igs, .brep, .brp)");
+    }
+  } catch (const Standard_Failure& e) {
+    throw InputError(path + ": OCCT could not read it (" + std::string(e.GetMessageString()) + ")");
+  }
+  if (shape.IsNull()) throw InputError(path + ": no shape in the file");
+  return shape;
+}
+
+TopoDS_Shape read_brep_shape(const std::string& text, const std::string& name) {
+  silence_occt_messages();
+  if (text.empty()) throw InputError(name + ": empty BREP text");
+  TopoDS_Shape shape;
+  try {
+    std::istringstream in(text);
+    BRep_Builder builder;
+    BRepTools::Read(shape, in, builder);
+  } catch (const Standard_Failure& e) {
+    throw InputError(name + ": OCCT could not read the BREP text (" + std::string(e.GetMessageString()) + ")");
+  }
+  if (shape.IsNull()) throw InputError(name + ": not a readable OCCT BREP text");
+  return shape;
+}
+
+CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name, const CadOptions& options) {
+  CadModel cad;
+  cad.model.name = name;
+  TopTools_IndexedMapOfShape faces;
+  TopExp::MapShapes(shape, TopAbs_FACE, faces);
+  if (faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
+  for (int k = 1; k <= faces.Extent(); ++k) {
+    const TopoDS_Face& face = TopoDS::Face(faces(k));
+    FaceReport r;
+    r.face_index = k - 1;
+    r.name = "Face " + std::to_string(k);
+    std::vector<BezierPatch> patches;
+    try {
+      const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);  // location applied
+      if (surface.IsNull()) {
+        r.surface_type = "none";
+        r.reason = "the face has no surface";
+      } else {
+        Handle(Geom_Surface) basis = surface;
+        while (basis->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))
+          basis = Handle(Geom_RectangularTrimmedSurface)::DownCast(basis)->BasisSurface();
+        r.surface_type = surface_type_name(basis);
+        double u0, u1, v0, v1;
+        BRepTools::UVBounds(face, u0, u1, v0, v1);
+        const bool analytic = !basis->IsKind(STANDARD_TYPE(Geom_BSplineSurface)) && !basis->IsKind(STANDARD_TYPE(Geom_BezierSurface));
+        if (analytic && !options.convert_analytic) {
+          r.reason = "analytic surface and convert_analytic is off";
+        } else {
+          patches = decompose(surface, u0, u1, v0, v1, r.reason);
+          for (size_t i = 0; i < patches.size() && r.reason.empty(); ++i) {
+            try {
+              validate_patch(patches[i], name + " " + r.name);
+            } catch (const InputError& e) {
+              r.reason = e.what();
+            }
+          }
+          if (!r.reason.empty()) patches.clear();
+        }
+        if (r.reason.empty() && !domain_is_rectangle(face, u0, u1, v0, v1)) {
+          r.status = "trimmed";
+          r.reason = "trimmed: the face's boundary is not its parameter rectangle";
+        }
+      }
+    } catch (const Standard_Failure& e) {
+      r.reason = std::string("OCCT failed on the face (") + e.GetMessageString() + ")";
+      patches.clear();
+    }
+    if (patches.empty()) {
+      r.status = "skipped";
+    } else if (r.status == "trimmed") {
+      r.first_patch = static_cast<int>(cad.trimmed_patches.size());
+      r.patch_count = static_cast<int>(patches.size());
+      cad.trimmed_patches.insert(cad.trimmed_patches.end(), patches.begin(), patches.end());
+    } else {
+      r.status = "tessellated";
+      r.first_patch = static_cast<int>(cad.model.patches.size());
+      r.patch_count = static_cast<int>(patches.size());
+      cad.model.patches.insert(cad.model.patches.end(), patches.begin(), patches.end());
+      cad.patch_face.insert(cad.patch_face.end(), patches.size(), r.face_index);
+    }
+    cad.faces.push_back(r);
+  }
+  for (const FaceReport& r : cad.faces) {
+    cad.faces_tessellated += r.status == "tessellated";
+    cad.faces_trimmed += r.status == "trimmed";
+    cad.faces_skipped += r.status == "skipped";
+  }
+  cad.bezier_patches = static_cast<int>(cad.model.patches.size() + cad.trimmed_patches.size());
+  if (!cad.model.patches.empty()) {
+    const double diagonal = model_box(cad.model).diagonal();
+    const double tol = options.snap_tolerance > 0.0 ? options.snap_tolerance
+                                                    : std::max(1e-6 * diagonal, std::min(max_edge_tolerance(shape), 1e-5 * diagonal));
+    cad.snap_tolerance = tol;
+    if (tol > 0.0) snap_shared_sides(cad, tol);
+  }
+  return cad;
+}
+
+CadModel read_cad_file(const std::string& path, const CadOptions& options) {
+  return cad_model_from_shape(read_cad_shape(path), path, options);
+}
+
+CadModel read_brep_string(const std::string& brep_text, const std::string& name, const CadOptions& options) {
+  return cad_model_from_shape(read_brep_shape(brep_text, name), name, options);
+}
+
+}  // namespace sagitta::occt
