@@ -1,6 +1,8 @@
 // The `sagitta` command line: one register function per subcommand, and the helpers they share.
 #pragma once
 
+#include "sagitta/certify.hpp"
+#include "sagitta/mesh_check.hpp"
 #include "sagitta/model.hpp"
 #include "sagitta/occt/cad.hpp"
 #include "sagitta/tessellation.hpp"
@@ -41,6 +43,12 @@ void write_json(const std::string& path, const nlohmann::json& doc);
 
 // Topology summary for stats files.
 nlohmann::json topology_json(const Model& model, const Topology& topology);
+
+// `sagitta validate` report fields (also used by the Python module, so both report alike):
+// a point as [x, y, z]; a distance interval; a mesh topology verdict with its findings.
+nlohmann::json vec_json(const Vec3& v);
+nlohmann::json interval_json(const DistanceInterval& interval);
+nlohmann::json topology_report_json(const TopologyReport& report);
 
 class Stopwatch {
  public:

@@ -33,6 +33,8 @@ struct ValidateOptions {
   int reference_segments = 32;
 };
 
+}  // namespace
+
 nlohmann::json vec_json(const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
 // Infinity is not JSON: an uncertified upper bound is written as null.
@@ -72,6 +74,8 @@ nlohmann::json topology_report_json(const TopologyReport& t) {
   j["findings"] = list;
   return j;
 }
+
+namespace {
 
 int run_validate(const ValidateOptions& o) {
   check_output_is_not_input(o.json, o.input);

@@ -1,15 +1,26 @@
 // The `_sagitta` Python module: the same C++ code as the CLI, for FreeCAD 0.20's Python (the system
-// Python 3.11) and for scripts. Arrays come back as NumPy arrays; errors as ValueError.
+// Python 3.11) and for scripts. Arrays come back as NumPy arrays; errors as ValueError. Tessellation
+// and validation go through the CLI's own functions (run_scheme, the validate report fields), so the
+// numbers here are the numbers `sagitta tessellate --stats` and `sagitta validate --json` print.
+#include "commands.hpp"
+#include "schemes.hpp"
+
+#include "sagitta/certify.hpp"
 #include "sagitta/fixtures.hpp"
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/io/model_io.hpp"
+#include "sagitta/mesh_check.hpp"
 #include "sagitta/uniform.hpp"
+#ifdef SAGITTA_HAVE_OCCT
+#include "sagitta/occt/cad.hpp"
+#endif
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
 #include <chrono>
+#include <cmath>
 #include <optional>
 
 namespace py = pybind11;
@@ -17,6 +28,11 @@ using namespace sagitta;
 
 namespace {
 
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+// An (N, 3) float64 array of the vectors.
 py::array_t<double> vectors(const std::vector<Vec3>& v) {
   py::array_t<double> a({static_cast<py::ssize_t>(v.size()), py::ssize_t{3}});
   auto m = a.mutable_unchecked<2>();
@@ -26,19 +42,46 @@ py::array_t<double> vectors(const std::vector<Vec3>& v) {
   return a;
 }
 
-py::dict mesh_dict(const Tessellation& t, double seconds) {
-  py::array_t<uint32_t> tris({static_cast<py::ssize_t>(t.triangles.size()), py::ssize_t{3}});
-  auto m = tris.mutable_unchecked<2>();
-  for (size_t k = 0; k < t.triangles.size(); ++k) {
-    for (int c = 0; c < 3; ++c) m(static_cast<py::ssize_t>(k), c) = t.triangles[k][static_cast<size_t>(c)];
+// An (M, 3) uint32 array of the triangles' vertex indices.
+py::array_t<uint32_t> triangle_array(const std::vector<Triangle>& triangles) {
+  py::array_t<uint32_t> a({static_cast<py::ssize_t>(triangles.size()), py::ssize_t{3}});
+  auto m = a.mutable_unchecked<2>();
+  for (size_t k = 0; k < triangles.size(); ++k) {
+    for (int c = 0; c < 3; ++c) m(static_cast<py::ssize_t>(k), c) = triangles[k][static_cast<size_t>(c)];
   }
+  return a;
+}
+
+py::dict mesh_dict(const Tessellation& t, double seconds) {
   py::dict d;
   d["positions"] = vectors(t.positions);
   d["normals"] = vectors(t.normals);
-  d["triangles"] = tris;
+  d["triangles"] = triangle_array(t.triangles);
   d["degenerate_triangles"] = t.degenerate_triangles;
   d["seconds"] = seconds;
   return d;
+}
+
+// The same value as a Python object (dict, list, int, float, str, bool, None).
+py::object to_python(const nlohmann::json& j) {
+  switch (j.type()) {
+    case nlohmann::json::value_t::object: {
+      py::dict d;
+      for (auto it = j.begin(); it != j.end(); ++it) d[py::str(it.key())] = to_python(it.value());
+      return std::move(d);
+    }
+    case nlohmann::json::value_t::array: {
+      py::list l;
+      for (const auto& item : j) l.append(to_python(item));
+      return std::move(l);
+    }
+    case nlohmann::json::value_t::string: return py::str(j.get<std::string>());
+    case nlohmann::json::value_t::boolean: return py::bool_(j.get<bool>());
+    case nlohmann::json::value_t::number_integer: return py::int_(j.get<int64_t>());
+    case nlohmann::json::value_t::number_unsigned: return py::int_(j.get<uint64_t>());
+    case nlohmann::json::value_t::number_float: return py::float_(j.get<double>());
+    default: return py::none();
+  }
 }
 
 py::dict topology_dict(const Model& model) {
@@ -53,6 +96,159 @@ py::dict topology_dict(const Model& model) {
   return d;
 }
 
+// A patch from Python: degree_u, degree_v, points as (deg_u+1)*(deg_v+1) rows of x, y, z (row-major,
+// the u index first, as in .bpt files) and optional weights. Checked like a file's patch.
+BezierPatch patch_from_python(int degree_u, int degree_v, py::array_t<double, py::array::c_style | py::array::forcecast> points,
+                              std::optional<py::array_t<double, py::array::c_style | py::array::forcecast>> weights,
+                              const std::string& what) {
+  BezierPatch p;
+  p.degree_u = degree_u;
+  p.degree_v = degree_v;
+  if (degree_u < 1 || degree_v < 1 || degree_u > kMaxDegree || degree_v > kMaxDegree) {
+    throw InputError(what + ": degrees must be in 1.." + std::to_string(kMaxDegree));
+  }
+  const auto expected = static_cast<py::ssize_t>((degree_u + 1) * (degree_v + 1));
+  if (points.size() != expected * 3) {
+    throw InputError(what + ": expected " + std::to_string(expected) + " control points of 3 coordinates");
+  }
+  const double* data = points.data();
+  for (py::ssize_t k = 0; k < expected; ++k) p.points.emplace_back(data[3 * k], data[3 * k + 1], data[3 * k + 2]);
+  if (weights && weights->size() > 0) {
+    if (weights->size() != expected) throw InputError(what + ": expected " + std::to_string(expected) + " weights");
+    p.weights.assign(weights->data(), weights->data() + expected);
+  }
+  validate_patch(p, what);
+  return p;
+}
+
+// A mesh without surface data from vertex and triangle arrays (a FreeCAD Mesh, any STL).
+Tessellation mesh_from_arrays(py::array_t<double, py::array::c_style | py::array::forcecast> positions,
+                              py::array_t<int64_t, py::array::c_style | py::array::forcecast> triangles) {
+  if (positions.ndim() != 2 || positions.shape(1) != 3) throw InputError("positions must be an (N, 3) array");
+  if (triangles.ndim() != 2 || triangles.shape(1) != 3) throw InputError("triangles must be an (M, 3) array");
+  Tessellation t;
+  const double* p = positions.data();
+  for (py::ssize_t k = 0; k < positions.shape(0); ++k) {
+    const Vec3 v(p[3 * k], p[3 * k + 1], p[3 * k + 2]);
+    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) throw InputError("mesh vertex " + std::to_string(k) + " is not finite");
+    t.positions.push_back(v);
+  }
+  const int64_t* tri = triangles.data();
+  for (py::ssize_t k = 0; k < triangles.shape(0); ++k) {
+    Triangle out{};
+    for (int c = 0; c < 3; ++c) {
+      const int64_t index = tri[3 * k + c];
+      if (index < 0 || index >= positions.shape(0)) throw InputError("mesh triangle " + std::to_string(k) + " refers to a missing vertex");
+      out[static_cast<size_t>(c)] = static_cast<uint32_t>(index);
+    }
+    t.triangles.push_back(out);
+  }
+  if (t.triangles.empty()) throw InputError("the mesh has no triangles");
+  return t;
+}
+
+// Runs a scheme exactly as `sagitta tessellate` does and returns the mesh (with surface data, so it
+// can be validated) and the statistics the CLI writes with --stats (less input and topology).
+std::pair<Tessellation, py::dict> tessellate(const Model& model, const cli::SchemeOptions& options_in) {
+  cli::SchemeOptions options = options_in;
+  options.surface_data = true;
+  nlohmann::json stats;
+  Tessellation mesh;
+  {
+    py::gil_scoped_release release;
+    const Topology topology = build_topology(model);
+    const auto start = Clock::now();
+    mesh = cli::run_scheme(model, topology, options, stats);
+    stats["seconds"] = seconds_since(start);
+    stats["patches"] = model.patches.size();
+    stats["vertices"] = mesh.positions.size();
+    stats["triangles"] = mesh.triangles.size();
+    stats["degenerate_triangles"] = mesh.degenerate_triangles;
+  }
+  return {std::move(mesh), to_python(stats).cast<py::dict>()};
+}
+
+// Certifies a mesh against the model and checks its topology; the fields are those of
+// `sagitta validate --json`, plus "triangle_error" (per triangle certified upper bound, empty for a
+// mesh without (u, v)).
+py::dict validate(const Model& model, const Tessellation& mesh, int max_depth, int reference_segments) {
+  if (max_depth < 0 || max_depth > 10) throw InputError("max_depth must be in 0..10");
+  if (reference_segments < 1 || reference_segments > 1024) throw InputError("reference_segments must be in 1..1024");
+  nlohmann::json doc;
+  DistanceReport distance;
+  TopologyReport topo;
+  {
+    py::gil_scoped_release release;
+    const Topology topology = build_topology(model);
+    CertifyOptions certify;
+    certify.max_depth = max_depth;
+    const auto start = Clock::now();
+    if (mesh.has_surface()) {
+      distance = certify_distance(model, mesh, certify);
+      doc["method"] = "bernstein";
+    } else {
+      ExternalOptions external;
+      external.reference_segments = reference_segments;
+      external.certify = certify;
+      distance = certify_external(model, mesh, external);
+      doc["method"] = "reference";
+      doc["reference_segments"] = reference_segments;
+    }
+    doc["distance_seconds"] = seconds_since(start);
+    const auto topo_start = Clock::now();
+    topo = check_mesh_topology(mesh, &model, &topology);
+    doc["topology_seconds"] = seconds_since(topo_start);
+    doc["seconds"] = doc["distance_seconds"].get<double>() + doc["topology_seconds"].get<double>();
+    doc["patches"] = model.patches.size();
+    doc["triangles"] = mesh.triangles.size();
+    doc["vertices"] = mesh.positions.size();
+    doc["dropped_degenerate_triangles"] = mesh.degenerate_triangles;
+    doc["hausdorff"] = cli::interval_json(distance.hausdorff);
+    doc["mesh_to_surface"] = cli::interval_json(distance.mesh_to_surface);
+    doc["surface_to_mesh"] = cli::interval_json(distance.surface_to_mesh);
+    doc["certified"] = distance.hausdorff.certified;
+    doc["coverage_ok"] = distance.coverage_ok;
+    if (!distance.coverage_note.empty()) doc["coverage_note"] = distance.coverage_note;
+    doc["rounding_term"] = distance.rounding;
+    doc["subtriangles"] = distance.leaves;
+    doc["triangles_at_depth_budget"] = distance.budget_exhausted;
+    doc["max_depth"] = max_depth;
+    doc["topology"] = cli::topology_report_json(topo);
+    doc["model_topology"] = cli::topology_json(model, topology);
+  }
+  py::dict out = to_python(doc).cast<py::dict>();
+  py::array_t<double> error(static_cast<py::ssize_t>(distance.triangle_upper.size()));
+  std::copy(distance.triangle_upper.begin(), distance.triangle_upper.end(), error.mutable_data());
+  out["triangle_error"] = error;
+  return out;
+}
+
+#ifdef SAGITTA_HAVE_OCCT
+// A CAD model as a dict: the patch model, one report per B-rep face and the conversion counts.
+py::dict cad_dict(const occt::CadModel& cad) {
+  py::list faces;
+  for (const occt::FaceReport& f : cad.faces) {
+    py::dict d;
+    d["face_index"] = f.face_index;
+    d["name"] = f.name;
+    d["surface_type"] = f.surface_type;
+    d["status"] = f.status;
+    d["reason"] = f.reason;
+    d["first_patch"] = f.first_patch;
+    d["patch_count"] = f.patch_count;
+    faces.append(d);
+  }
+  py::dict d;
+  d["model"] = cad.model;
+  d["faces"] = faces;
+  d["patch_face"] = cad.patch_face;
+  d["faces_tessellated"] = cad.faces_tessellated;
+  d["faces_trimmed"] = cad.faces_trimmed;
+  d["faces_skipped"] = cad.faces_skipped;
+  return d;
+}
+#endif
+
 }  // namespace
 
 PYBIND11_MODULE(_sagitta, m) {
@@ -62,14 +258,90 @@ PYBIND11_MODULE(_sagitta, m) {
   py::class_<Model>(m, "Model")
       .def_readonly("name", &Model::name)
       .def_property_readonly("patch_count", [](const Model& model) { return model.patches.size(); })
+      .def_property_readonly(
+          "patches",
+          [](const Model& model) {
+            py::list out;
+            for (const BezierPatch& p : model.patches) {
+              py::dict d;
+              d["degree_u"] = p.degree_u;
+              d["degree_v"] = p.degree_v;
+              d["points"] = vectors(p.points);
+              d["weights"] = p.rational() ? py::cast(p.weights) : py::none();
+              out.append(d);
+            }
+            return out;
+          },
+          "The patches as dicts, in the form model_from_patches takes")
       .def("__repr__", [](const Model& model) {
         return "<sagitta.Model '" + model.name + "' with " + std::to_string(model.patches.size()) + " patches>";
       });
 
+  py::class_<Tessellation>(m, "Mesh", "A triangle mesh; meshes made by tessellate() also carry each vertex's (patch, u, v)")
+      .def_property_readonly("positions", [](const Tessellation& t) { return vectors(t.positions); })
+      .def_property_readonly("normals", [](const Tessellation& t) { return vectors(t.normals); })
+      .def_property_readonly("triangles", [](const Tessellation& t) { return triangle_array(t.triangles); })
+      .def_property_readonly("triangle_patch", [](const Tessellation& t) { return t.triangle_patch; })
+      .def_property_readonly("vertex_count", [](const Tessellation& t) { return t.positions.size(); })
+      .def_property_readonly("triangle_count", [](const Tessellation& t) { return t.triangles.size(); })
+      .def_readonly("degenerate_triangles", &Tessellation::degenerate_triangles)
+      .def_property_readonly("has_surface", &Tessellation::has_surface)
+      .def("__repr__", [](const Tessellation& t) {
+        return "<sagitta.Mesh with " + std::to_string(t.positions.size()) + " vertices, " +
+               std::to_string(t.triangles.size()) + " triangles>";
+      });
+
   m.def("read_model", &io::read_patch_model, py::arg("path"), "Read a .bpt or .rib patch file");
+  m.def("parse_bpt", &io::parse_bpt, py::arg("text"), py::arg("name"), "A patch model from .bpt text; `name` names it in messages");
   m.def("default_model", &fixtures::default_model, "The built-in default model (pillow box + rational torus)");
   m.def("replicate", &replicate, py::arg("model"), py::arg("copies"), "K translated instances of a model");
   m.def("topology", &topology_dict, py::arg("model"), "Shared, free and collapsed patch sides");
+  m.def(
+      "model_from_patches",
+      [](const std::string& name, const py::list& patches) {
+        Model model;
+        model.name = name;
+        for (size_t k = 0; k < patches.size(); ++k) {
+          const py::dict p = patches[k].cast<py::dict>();
+          std::optional<py::array_t<double, py::array::c_style | py::array::forcecast>> weights;
+          if (p.contains("weights") && !p["weights"].is_none()) weights = p["weights"].cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+          model.patches.push_back(patch_from_python(p["degree_u"].cast<int>(), p["degree_v"].cast<int>(),
+                                                    p["points"].cast<py::array_t<double, py::array::c_style | py::array::forcecast>>(),
+                                                    weights, name + ": patch " + std::to_string(k)));
+        }
+        validate_model(model, name);
+        return model;
+      },
+      py::arg("name"), py::arg("patches"),
+      "A model from a list of dicts {degree_u, degree_v, points ((du+1)*(dv+1), 3) row-major by u index, weights or None}");
+  m.def("mesh_from_arrays", &mesh_from_arrays, py::arg("positions"), py::arg("triangles"),
+        "A mesh without surface data (validated through a certified reference tessellation)");
+  m.def("read_mesh", &io::read_mesh, py::arg("path"), "Read an .obj, .ply or .stl mesh");
+  m.def("write_mesh", [](const Tessellation& mesh, const std::string& path) { io::write_mesh(mesh, path); }, py::arg("mesh"),
+        py::arg("path"), "Write .obj, .ply or .stl atomically");
+  m.def(
+      "tessellate",
+      [](const Model& model, const std::string& scheme, int level, int segments, double threshold, int base_level,
+         const std::string& pattern, const std::string& pn_variant, double tess_factor, uint64_t max_triangles) {
+        cli::SchemeOptions o;
+        o.scheme = scheme;
+        o.level = level;
+        o.segments = segments;
+        o.threshold = threshold;
+        o.base_level = base_level;
+        o.pattern = pattern;
+        o.pn_variant = pn_variant;
+        o.tess_factor = tess_factor;
+        o.max_triangles = max_triangles;
+        return tessellate(model, o);
+      },
+      py::arg("model"), py::arg("scheme") = "uniform", py::arg("level") = -1, py::arg("segments") = -1,
+      py::arg("threshold") = 0.0, py::arg("base_level") = -1, py::arg("pattern") = "integer", py::arg("pn_variant") = "basic",
+      py::arg("tess_factor") = -1.0, py::arg("max_triangles") = uint64_t{200'000'000},
+      "Tessellate with a scheme (uniform | esc | pn), parameters as in `sagitta tessellate`; returns (Mesh, stats dict)");
+  m.def("validate", &validate, py::arg("model"), py::arg("mesh"), py::arg("max_depth") = 8, py::arg("reference_segments") = 32,
+        "Certified distance intervals (hausdorff, mesh_to_surface, surface_to_mesh) and topology verdict, as in "
+        "`sagitta validate --json`, plus triangle_error (per-triangle certified bound; empty without (u, v))");
   m.def(
       "tessellate_uniform",
       [](const Model& model, std::optional<int> level, std::optional<int> segments) {
@@ -79,12 +351,41 @@ PYBIND11_MODULE(_sagitta, m) {
         params.surface_data = false;
         const Topology topo = build_topology(model);
         py::gil_scoped_release release;
-        const auto start = std::chrono::steady_clock::now();
+        const auto start = Clock::now();
         Tessellation t = tessellate_uniform(model, topo, params);
-        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        const double seconds = seconds_since(start);
         py::gil_scoped_acquire acquire;
         return mesh_dict(t, seconds);
       },
       py::arg("model"), py::arg("level") = py::none(), py::arg("segments") = py::none(),
       "Uniform tessellation: positions (N,3), normals (N,3), triangles (M,3), degenerate_triangles, seconds");
+
+#ifdef SAGITTA_HAVE_OCCT
+  m.attr("has_occt") = true;
+  m.def(
+      "read_brep_string",
+      [](const std::string& text, const std::string& name) {
+        occt::CadModel cad;
+        {
+          py::gil_scoped_release release;
+          cad = occt::read_brep_string(text, name);
+        }
+        return cad_dict(cad);
+      },
+      py::arg("brep_text"), py::arg("name"),
+      "A shape's BREP text (FreeCAD: shape.exportBrepToString()) as {model, faces, ...} through the OCCT adapter");
+  m.def(
+      "read_cad_file",
+      [](const std::string& path) {
+        occt::CadModel cad;
+        {
+          py::gil_scoped_release release;
+          cad = occt::read_cad_file(path);
+        }
+        return cad_dict(cad);
+      },
+      py::arg("path"), "A .step/.iges/.brep file as {model, faces, ...} through the OCCT adapter");
+#else
+  m.attr("has_occt") = false;
+#endif
 }

@@ -1,0 +1,414 @@
+"""Sagitta workbench GUI: commands (toolbar, menu, tooltips), task panels, the view provider of the
+tessellation feature and the preferences page. Work is done by SagittaCore; this module turns
+selections into calls and errors into FreeCAD messages (nothing here lets an exception reach
+FreeCAD's event loop)."""
+import os
+import traceback
+
+import FreeCAD
+import FreeCADGui
+from PySide import QtCore, QtGui
+
+import SagittaCore
+
+ICONS = os.path.join(os.path.dirname(__file__), "icons")
+active_panel = None  # the open Sagitta task panel (scripts and tests reach it here)
+
+
+def icon(name):
+    return os.path.join(ICONS, name + ".svg")
+
+
+def report_error(title, error):
+    """Shows a problem as a FreeCAD message: the report view always, a dialog in the GUI.
+    Unexpected exceptions also leave their traceback in the report view."""
+    text = str(error) if isinstance(error, SagittaCore.SagittaError) else "%s: %s" % (type(error).__name__, error)
+    FreeCAD.Console.PrintError("Sagitta %s: %s\n" % (title, text))
+    if not isinstance(error, SagittaCore.SagittaError):
+        FreeCAD.Console.PrintLog(traceback.format_exc())
+    if not os.environ.get("SAGITTA_NO_DIALOGS"):
+        QtGui.QMessageBox.warning(FreeCADGui.getMainWindow(), "Sagitta " + title, text)
+
+
+def selected_links():
+    """[(object, [face names])] of the selection; objects selected whole have an empty name list."""
+    links = []
+    for sel in FreeCADGui.Selection.getSelectionEx():
+        subs = [s for s in sel.SubElementNames if s.startswith("Face")]
+        links.append((sel.Object, subs))
+    return links
+
+
+def show_panel(panel):
+    global active_panel
+    FreeCADGui.Control.closeDialog()
+    active_panel = panel
+    FreeCADGui.Control.showDialog(panel)
+
+
+def close_panel():
+    global active_panel
+    active_panel = None
+    FreeCADGui.Control.closeDialog()
+
+
+class ViewProviderTessellation:
+    """Icon and double-click editing of a tessellation feature."""
+
+    def __init__(self, vobj):
+        vobj.Proxy = self
+
+    def attach(self, vobj):
+        self.Object = vobj.Object
+
+    def getIcon(self):
+        return icon("Sagitta_Tessellate")
+
+    def setEdit(self, vobj, mode=0):
+        if mode != 0:
+            return None
+        show_panel(TessellatePanel(vobj.Object))
+        return True
+
+    def unsetEdit(self, vobj, mode=0):
+        return None
+
+    def doubleClicked(self, vobj):
+        show_panel(TessellatePanel(vobj.Object))
+        return True
+
+    def __getstate__(self):
+        return None
+
+    def __setstate__(self, state):
+        return None
+
+
+# ---------------------------------------------------------------------------------------------
+# Task panels
+
+
+def _form(title):
+    widget = QtGui.QWidget()
+    widget.setWindowTitle(title)
+    layout = QtGui.QFormLayout(widget)
+    return widget, layout
+
+
+class TessellatePanel:
+    """Parameters of a tessellation feature; OK applies them (one Undo step), Cancel leaves it."""
+
+    def __init__(self, obj):
+        self.obj = obj
+        self.form, layout = _form("Sagitta tessellation")
+        self.scheme = QtGui.QComboBox()
+        self.scheme.addItems(SagittaCore.SCHEMES)
+        self.scheme.setCurrentIndex(SagittaCore.SCHEMES.index(obj.Scheme))
+        self.level = QtGui.QSpinBox()
+        self.level.setRange(0, 12)
+        self.level.setValue(obj.Level)
+        self.base_level = QtGui.QSpinBox()
+        self.base_level.setRange(0, 10)
+        self.base_level.setValue(obj.BaseLevel)
+        self.threshold = QtGui.QDoubleSpinBox()
+        self.threshold.setDecimals(6)
+        self.threshold.setRange(0.0, 1e6)
+        self.threshold.setValue(obj.Threshold)
+        self.stats = QtGui.QLabel(self.stats_text())
+        layout.addRow("Scheme", self.scheme)
+        layout.addRow("Level", self.level)
+        layout.addRow("Base level (pn)", self.base_level)
+        layout.addRow("Threshold (esc)", self.threshold)
+        layout.addRow(self.stats)
+
+    def stats_text(self):
+        o = self.obj
+        return "%d patches -> %d triangles, %d vertices in %.3f s" % (o.Patches, o.Triangles, o.Vertices, o.TessellationSeconds)
+
+    def accept(self):
+        try:
+            SagittaCore.edit_tessellation(self.obj, Scheme=self.scheme.currentText(), Level=self.level.value(),
+                                          BaseLevel=self.base_level.value(), Threshold=self.threshold.value())
+        except Exception as error:
+            report_error("Tessellate", error)
+            return False
+        close_panel()
+        return True
+
+    def reject(self):
+        close_panel()
+        return True
+
+
+class LegendWidget(QtGui.QWidget):
+    """The colour scale of the per-triangle error, 0 to `top` (model units)."""
+
+    def __init__(self, top):
+        super().__init__()
+        self.top = top
+        self.setMinimumHeight(46)
+
+    def paintEvent(self, event):
+        painter = QtGui.QPainter(self)
+        width = self.width() - 10
+        gradient = QtGui.QLinearGradient(5, 0, 5 + width, 0)
+        for k in range(5):
+            r, g, b = SagittaCore.legend_colour(k / 4.0)
+            gradient.setColorAt(k / 4.0, QtGui.QColor.fromRgbF(r, g, b))
+        painter.fillRect(5, 4, width, 18, QtGui.QBrush(gradient))
+        for k in range(5):
+            x = 5 + width * k / 4.0
+            label = "%.2e" % (self.top * k / 4.0)
+            painter.drawText(int(x) - (0 if k == 0 else 50 if k == 4 else 25), 40, label)
+        painter.end()
+
+
+def interval_text(interval):
+    upper = interval["upper"]
+    return "[%.6g, %s]" % (interval["lower"], "%.6g" % upper if upper is not None else "not certified")
+
+
+class ValidatePanel:
+    """Results of a validation: certified intervals, topology verdict, colour legend, HTML report."""
+
+    def __init__(self, label, report):
+        self.label = label
+        self.report = report
+        self.form, layout = _form("Sagitta validation")
+        layout.addRow(QtGui.QLabel("<b>%s</b>: %d triangles, %s, %.3f s" % (
+            label, report["triangles"], report["method"], report["seconds"])))
+        layout.addRow("Hausdorff", QtGui.QLabel(interval_text(report["hausdorff"])))
+        layout.addRow("mesh → surface", QtGui.QLabel(interval_text(report["mesh_to_surface"])))
+        layout.addRow("surface → mesh", QtGui.QLabel(interval_text(report["surface_to_mesh"])))
+        t = report["topology"]
+        layout.addRow("Topology", QtGui.QLabel(SagittaCore.verdict_text(report)))
+        layout.addRow("Open edges", QtGui.QLabel("%d (model boundary %d, cracks %d)" % (
+            t["open_edges"], t["model_boundary_edges"], t["crack_edges"])))
+        layout.addRow("T-junctions / non-manifold", QtGui.QLabel("%d / %d" % (t["t_junctions"], t["non_manifold_edges"])))
+        if len(report["triangle_error"]):
+            layout.addRow(QtGui.QLabel("Per-triangle certified error (model units):"))
+            layout.addRow(LegendWidget(report.get("colour_scale_top", 0.0)))
+        else:
+            layout.addRow(QtGui.QLabel("No per-triangle error: this mesh has no (u, v) on the surface."))
+        self.report_button = QtGui.QPushButton("Save HTML report…")
+        self.report_button.clicked.connect(self.save_report)
+        layout.addRow(self.report_button)
+
+    def save_report(self, path=None):
+        """Writes the HTML report to `path`, or where the user chooses."""
+        try:
+            if not path:
+                path, _ = QtGui.QFileDialog.getSaveFileName(FreeCADGui.getMainWindow(), "Save validation report",
+                                                            self.label + "-validation.html", "HTML (*.html)")
+            if path:
+                SagittaCore.write_html_report(self.report, self.label, path)
+                FreeCAD.Console.PrintMessage("Sagitta: report written to %s\n" % path)
+        except Exception as error:
+            report_error("Validate", error)
+
+    def getStandardButtons(self):
+        return int(QtGui.QDialogButtonBox.Close)
+
+    def reject(self):
+        close_panel()
+        return True
+
+    def accept(self):
+        return self.reject()
+
+
+class FitPanel:
+    """Asks for the target error; OK runs the fit and sets the feature's level/threshold."""
+
+    def __init__(self, obj):
+        self.obj = obj
+        self.form, layout = _form("Sagitta fit to target error")
+        self.target = QtGui.QDoubleSpinBox()
+        self.target.setDecimals(6)
+        self.target.setRange(1e-6, 1e6)
+        self.target.setValue(obj.TargetError if obj.TargetError > 0 else SagittaCore.preferences()["target_error"])
+        layout.addRow(QtGui.QLabel("<b>%s</b> (%s scheme)" % (obj.Label, obj.Scheme)))
+        layout.addRow("Target error", self.target)
+        self.result = QtGui.QLabel("")
+        layout.addRow(self.result)
+
+    def accept(self):
+        try:
+            QtGui.QApplication.setOverrideCursor(QtCore.Qt.WaitCursor)
+            try:
+                params, report = SagittaCore.fit_tessellation(self.obj, self.target.value())
+            finally:
+                QtGui.QApplication.restoreOverrideCursor()
+        except Exception as error:
+            report_error("Fit", error)
+            return False
+        FreeCAD.Console.PrintMessage("Sagitta fit: %s -> certified error <= %.6g\n" % (params, report["hausdorff"]["upper"]))
+        close_panel()
+        return True
+
+    def reject(self):
+        close_panel()
+        return True
+
+
+# ---------------------------------------------------------------------------------------------
+# Commands
+
+
+def _selected_tessellation():
+    for sel in FreeCADGui.Selection.getSelection():
+        if SagittaCore.is_tessellation(sel):
+            return sel
+    return None
+
+
+class TessellateCommand:
+    def GetResources(self):
+        return {"Pixmap": icon("Sagitta_Tessellate"), "MenuText": "Tessellate",
+                "ToolTip": "Tessellate the selected Part objects or faces (Bézier, B-spline) into a parametric mesh "
+                           "that follows its source; parameters in the task panel"}
+
+    def IsActive(self):
+        return FreeCAD.ActiveDocument is not None
+
+    def Activated(self):
+        try:
+            links = [(o, s) for o, s in selected_links() if not SagittaCore.is_tessellation(o)]
+            obj = SagittaCore.make_tessellation(FreeCAD.ActiveDocument, links)
+            FreeCADGui.Selection.clearSelection()
+            FreeCADGui.Selection.addSelection(obj)
+            show_panel(TessellatePanel(obj))
+        except Exception as error:
+            report_error("Tessellate", error)
+
+
+class ValidateCommand:
+    def GetResources(self):
+        return {"Pixmap": icon("Sagitta_Validate"), "MenuText": "Validate",
+                "ToolTip": "Certify the distance between the selected tessellation (or a Mesh plus its Part source, or "
+                           "a Part object alone: FreeCAD's own mesh of it) and the exact surface; colours the mesh by "
+                           "per-triangle error"}
+
+    def IsActive(self):
+        return FreeCAD.ActiveDocument is not None
+
+    def Activated(self):
+        try:
+            obj = _selected_tessellation()
+            if obj is not None:
+                report = SagittaCore.validate_tessellation(obj)
+                show_panel(ValidatePanel(obj.Label, report))
+                return
+            links = selected_links()
+            meshes = [o for o, _ in links if o.isDerivedFrom("Mesh::Feature")]
+            shapes = [(o, s) for o, s in links if not o.isDerivedFrom("Mesh::Feature")]
+            if not shapes:
+                raise SagittaCore.SagittaError(
+                    "Select a Sagitta tessellation, or a Mesh object and the Part object it approximates, or a Part object")
+            if not meshes:
+                meshes = [SagittaCore.freecad_mesh_of(FreeCAD.ActiveDocument, shapes)]
+                FreeCAD.ActiveDocument.recompute()
+            report = SagittaCore.validate_mesh_object(meshes[0], shapes)
+            show_panel(ValidatePanel(meshes[0].Label, report))
+        except Exception as error:
+            report_error("Validate", error)
+
+
+class FitCommand:
+    def GetResources(self):
+        return {"Pixmap": icon("Sagitta_Fit"), "MenuText": "Fit to target error",
+                "ToolTip": "Choose the selected tessellation's level (and esc threshold) so that its certified error "
+                           "is at most a target"}
+
+    def IsActive(self):
+        return FreeCAD.ActiveDocument is not None
+
+    def Activated(self):
+        try:
+            obj = _selected_tessellation()
+            if obj is None:
+                raise SagittaCore.SagittaError("Select a Sagitta tessellation to fit")
+            show_panel(FitPanel(obj))
+        except Exception as error:
+            report_error("Fit", error)
+
+
+class ImportCommand:
+    def GetResources(self):
+        return {"Pixmap": icon("Sagitta_Import"), "MenuText": "Import patches…",
+                "ToolTip": "Import a .bpt or .rib Bézier patch file as Part Bézier faces"}
+
+    def IsActive(self):
+        return True
+
+    def Activated(self):
+        try:
+            path, _ = QtGui.QFileDialog.getOpenFileName(FreeCADGui.getMainWindow(), "Import Bézier patches", "",
+                                                        "Bézier patches (*.bpt *.rib)")
+            if path:
+                import SagittaImport
+                if FreeCAD.ActiveDocument is None:
+                    SagittaImport.open(path)
+                else:
+                    SagittaImport.insert(path, FreeCAD.ActiveDocument.Name)
+                FreeCADGui.SendMsgToActiveView("ViewFit")
+        except Exception as error:
+            report_error("Import", error)
+
+
+# ---------------------------------------------------------------------------------------------
+# Preferences
+
+
+class PreferencesPage:
+    """Default scheme, level, threshold, target error and validation depth for new features."""
+
+    def __init__(self, parent=None):
+        self.form = QtGui.QWidget(parent)
+        self.form.setWindowTitle("Sagitta")
+        layout = QtGui.QFormLayout(self.form)
+        self.scheme = QtGui.QComboBox()
+        self.scheme.addItems(SagittaCore.SCHEMES)
+        self.level = QtGui.QSpinBox()
+        self.level.setRange(0, 12)
+        self.threshold = QtGui.QDoubleSpinBox()
+        self.threshold.setDecimals(6)
+        self.threshold.setRange(0.0, 1e6)
+        self.target = QtGui.QDoubleSpinBox()
+        self.target.setDecimals(6)
+        self.target.setRange(1e-6, 1e6)
+        self.depth = QtGui.QSpinBox()
+        self.depth.setRange(0, 10)
+        layout.addRow("Default scheme", self.scheme)
+        layout.addRow("Default level", self.level)
+        layout.addRow("Default esc threshold", self.threshold)
+        layout.addRow("Default target error", self.target)
+        layout.addRow("Validation depth budget", self.depth)
+
+    def loadSettings(self):
+        p = SagittaCore.preferences()
+        self.scheme.setCurrentIndex(SagittaCore.SCHEMES.index(p["scheme"]))
+        self.level.setValue(p["level"])
+        self.threshold.setValue(p["threshold"])
+        self.target.setValue(p["target_error"])
+        self.depth.setValue(p["max_depth"])
+
+    def saveSettings(self):
+        p = FreeCAD.ParamGet(SagittaCore.PARAM_PATH)
+        p.SetString("DefaultScheme", self.scheme.currentText())
+        p.SetInt("DefaultLevel", self.level.value())
+        p.SetFloat("DefaultThreshold", self.threshold.value())
+        p.SetFloat("DefaultTargetError", self.target.value())
+        p.SetInt("MaxDepth", self.depth.value())
+
+
+COMMANDS = ["Sagitta_Tessellate", "Sagitta_Validate", "Sagitta_Fit", "Sagitta_Import"]
+
+
+def register():
+    """Adds the commands and the preferences page (once)."""
+    FreeCADGui.addCommand("Sagitta_Tessellate", TessellateCommand())
+    FreeCADGui.addCommand("Sagitta_Validate", ValidateCommand())
+    FreeCADGui.addCommand("Sagitta_Fit", FitCommand())
+    FreeCADGui.addCommand("Sagitta_Import", ImportCommand())
+    FreeCADGui.addPreferencePage(PreferencesPage, "Sagitta")

@@ -1,0 +1,160 @@
+"""GUI test of the Sagitta workbench under Xvfb (run by run_freecad.sh, which installs the workbench
+into a throw-away user Mod folder). Activates the workbench, selects faces, runs every command with
+FreeCADGui.runCommand, checks what each did, and saves a screenshot (SAGITTA_SCREENSHOT) of the
+teapot coloured by certified per-triangle error beside the validation task panel."""
+import os
+import sys
+import traceback
+
+import FreeCAD
+import FreeCADGui
+from PySide import QtCore, QtGui
+
+failures = []
+SHARED = os.environ.get("SHARED_DATA", "")
+TEAPOT = os.path.join(SHARED, "teapot.bpt")
+
+
+def check(condition, what):
+    print("%s: %s" % ("ok" if condition else "FAILED", what), flush=True)
+    if not condition:
+        failures.append(what)
+
+
+def process_events(rounds=5):
+    for _ in range(rounds):
+        QtGui.QApplication.processEvents()
+
+
+class DialogWatcher:
+    """Closes the modal message boxes a command opens and records their text."""
+
+    def __init__(self):
+        self.texts = []
+        self.timer = QtCore.QTimer()
+        self.timer.timeout.connect(self.poll)
+        self.timer.start(100)
+
+    def poll(self):
+        box = QtGui.QApplication.activeModalWidget()
+        if isinstance(box, QtGui.QMessageBox):
+            self.texts.append(box.text())
+            box.done(0)
+
+
+def run():
+    FreeCADGui.activateWorkbench("SagittaWorkbench")
+    process_events()
+    import SagittaCore
+    import SagittaGui
+    import SagittaImport
+    check(FreeCADGui.activeWorkbench().name() == "SagittaWorkbench", "workbench active")
+    for name in SagittaGui.COMMANDS:
+        check(name in FreeCADGui.listCommands(), "command %s registered" % name)
+    watcher = DialogWatcher()
+
+    # Import through the command (its file dialog answered with the teapot).
+    if not os.path.exists(TEAPOT):
+        print("shared data absent: GUI test skipped", flush=True)
+        return
+    QtGui.QFileDialog.getOpenFileName = staticmethod(lambda *args, **kwargs: (TEAPOT, ""))
+    FreeCADGui.runCommand("Sagitta_Import")
+    process_events()
+    doc = FreeCAD.ActiveDocument
+    check(doc is not None and len(doc.Objects) == 1 and len(doc.Objects[0].Shape.Faces) == 32, "Import: teapot, 32 faces")
+    teapot = doc.Objects[0]
+
+    # Wrong and empty selections: a message, no change.
+    FreeCADGui.Selection.clearSelection()
+    before = len(doc.Objects)
+    for command in ("Sagitta_Tessellate", "Sagitta_Validate", "Sagitta_Fit"):
+        seen = len(watcher.texts)
+        FreeCADGui.runCommand(command)
+        process_events(20)
+        check(len(watcher.texts) > seen, "%s on an empty selection shows a message" % command)
+    check(len(doc.Objects) == before, "empty selections changed nothing")
+
+    # Tessellate one selected face.
+    FreeCADGui.Selection.addSelection(teapot, "Face1")
+    FreeCADGui.runCommand("Sagitta_Tessellate")
+    process_events()
+    one = [o for o in doc.Objects if SagittaCore.is_tessellation(o)]
+    check(len(one) == 1 and one[0].Patches == 1, "Tessellate on Face1: one patch")
+    panel = SagittaGui.active_panel
+    check(isinstance(panel, SagittaGui.TessellatePanel), "Tessellate opens its task panel")
+    panel.level.setValue(2)
+    panel.accept()
+    process_events()
+    check(one[0].Level == 2 and one[0].Triangles + one[0].DegenerateTriangles == 2 * 4 * 4, "task panel applies the level")
+    doc.undo()  # the edit
+    doc.undo()  # the creation
+    process_events()
+    check(not any(SagittaCore.is_tessellation(o) for o in doc.Objects), "Undo after Tessellate restores the document")
+
+    # Tessellate all 32 faces (a face selection), validate, fit.
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(teapot, ["Face%d" % (k + 1) for k in range(32)])
+    FreeCADGui.runCommand("Sagitta_Tessellate")
+    process_events()
+    SagittaGui.active_panel.level.setValue(4)
+    SagittaGui.active_panel.accept()
+    tess = [o for o in doc.Objects if SagittaCore.is_tessellation(o)][0]
+    check(tess.Patches == 32 and tess.Level == 4, "Tessellate on 32 faces at level 4")
+
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(tess)
+    FreeCADGui.runCommand("Sagitta_Fit")
+    process_events()
+    fit = SagittaGui.active_panel
+    check(isinstance(fit, SagittaGui.FitPanel), "Fit opens its task panel")
+    fit.target.setValue(0.02)
+    check(fit.accept() is True, "Fit runs")
+    check(tess.Level == 3 and tess.TargetError == 0.02, "Fit to 0.02 chooses uniform level 3 (level %d)" % tess.Level)
+
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(tess)
+    FreeCADGui.runCommand("Sagitta_Validate")
+    process_events()
+    panel = SagittaGui.active_panel
+    check(isinstance(panel, SagittaGui.ValidatePanel), "Validate opens its task panel")
+    check(tess.ErrorUpper > 0 and len(tess.FaceColors) == tess.Mesh.CountFacets, "Validate colours every triangle")
+    check(tess.ViewObject.Coloring, "colour mode on")
+    report_path = os.path.join(os.environ["HOME"], "report.html")
+    panel.save_report(report_path)
+    check(os.path.exists(report_path) and "Hausdorff" in open(report_path).read(), "HTML report written")
+
+    # Screenshot: teapot hidden, the coloured tessellation beside the task panel.
+    teapot.ViewObject.Visibility = False
+    FreeCADGui.Selection.clearSelection()
+    view = FreeCADGui.ActiveDocument.ActiveView
+    view.viewIsometric()
+    view.fitAll()
+    mw = FreeCADGui.getMainWindow()
+    mw.resize(1400, 900)
+    process_events(30)
+    shot = os.environ.get("SAGITTA_SCREENSHOT")
+    if shot:
+        check(mw.grab().save(shot), "screenshot saved to %s" % shot)
+        view.saveImage(shot.replace(".png", "-view.png"), 900, 700, "White")
+
+    # Validate FreeCAD's own mesh of the teapot (MeshPart): a new mesh object, an external certificate.
+    FreeCADGui.Control.closeDialog()
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(teapot)
+    count = len(doc.Objects)
+    FreeCADGui.runCommand("Sagitta_Validate")
+    process_events()
+    panel = SagittaGui.active_panel
+    check(len(doc.Objects) == count + 1 and isinstance(panel, SagittaGui.ValidatePanel)
+          and panel.report["method"] == "reference", "Validate of FreeCAD's own mesh (MeshPart)")
+    watcher.timer.stop()
+
+
+try:
+    run()
+except Exception:
+    traceback.print_exc()
+    failures.append("exception")
+print("GUI test: %s" % ("FAILED: " + "; ".join(failures) if failures else "passed"), flush=True)
+sys.stdout.flush()
+os._exit(1 if failures else 0)

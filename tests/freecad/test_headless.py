@@ -1,0 +1,241 @@
+"""Headless FreeCAD test of the Sagitta workbench (run by freecadcmd through run_freecad.sh).
+
+A document with a Bézier face and a B-spline face; each kind of feature is created through the code
+the commands use (SagittaCore), recomputed, and compared with the independent reference: the
+`sagitta` CLI on the same patches (facet counts from `tessellate --stats`, validation fields from
+`validate --json`). Also: Undo after Tessellate, wrong selections, recompute on change, the source
+never modified, the .bpt importer."""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import traceback
+import unittest
+
+sys.path.insert(0, os.environ["SAGITTA_PYTHON_DIR"])
+sys.path.insert(0, os.environ["SAGITTA_WORKBENCH_DIR"])
+
+import FreeCAD  # noqa: E402
+import Part  # noqa: E402
+
+import Init  # noqa: E402,F401  (the workbench's non-GUI init: the import type)
+import SagittaCore  # noqa: E402
+import SagittaImport  # noqa: E402
+
+CLI = os.environ["SAGITTA_CLI"]
+SHARED = os.environ.get("SHARED_DATA", "")
+WORK = tempfile.mkdtemp(prefix="sagitta-fc-")
+
+
+def bezier_face():
+    """A bicubic Bézier face with a bumpy, non-planar control net."""
+    s = Part.BezierSurface()
+    s.increase(3, 3)
+    for i in range(4):
+        for j in range(4):
+            z = 0.6 * ((i * 7 + j * 3) % 5) / 4.0 - 0.2 * i * (3 - j) / 3.0
+            s.setPole(i + 1, j + 1, FreeCAD.Vector(i * 1.0, j * 1.0, z))
+    return Part.Face(s)
+
+
+def bspline_face():
+    """A cubic x quadratic B-spline face with interior knots (several Bézier spans per direction)
+    and a few weights != 1."""
+    nu, nv = 6, 4
+    poles = [[FreeCAD.Vector(i * 0.8, j * 1.1, 0.3 * ((i + 2 * j) % 3) - 0.1 * i) for j in range(nv)] for i in range(nu)]
+    weights = [[1.0 + 0.25 * ((i * j) % 2) for j in range(nv)] for i in range(nu)]
+    s = Part.BSplineSurface()
+    s.buildFromPolesMultsKnots(poles, [4, 1, 1, 4], [3, 1, 3], [0.0, 0.3, 0.7, 1.0], [0.0, 0.5, 1.0],
+                               False, False, 3, 2, weights)
+    return Part.Face(s)
+
+
+def cli_json(args, name):
+    """Runs the CLI with a JSON output and returns the parsed document."""
+    out = os.path.join(WORK, name)
+    subprocess.run([CLI] + args + ([out] if args[-1] in ("--stats", "--json") else []), check=True,
+                   stdout=subprocess.DEVNULL)
+    with open(out) as f:
+        return json.load(f)
+
+
+def scheme_args(params):
+    args = ["--scheme", params["scheme"], "--level", str(params["level"])]
+    if "threshold" in params:
+        args += ["--threshold", repr(params["threshold"])]
+    if "base_level" in params:
+        args += ["--base-level", str(params["base_level"])]
+    return args
+
+
+SCHEMES = [
+    {"scheme": "uniform", "level": 3},
+    {"scheme": "esc", "level": 3, "threshold": 0.002},
+    {"scheme": "pn", "level": 2, "base_level": 2},
+]
+
+
+class HeadlessTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.doc = FreeCAD.newDocument("SagittaHeadless")
+        cls.doc.UndoMode = 1  # freecadcmd documents start without undo
+        cls.bezier = cls.doc.addObject("Part::Feature", "BezierFace")
+        cls.bezier.Shape = bezier_face()
+        cls.bspline = cls.doc.addObject("Part::Feature", "BSplineFace")
+        cls.bspline.Shape = bspline_face()
+        cls.doc.recompute()
+
+    def model_file(self, obj):
+        """The patches Sagitta reads from the object, written as .bpt for the CLI."""
+        model, _ = SagittaCore.shape_model([(obj, [])], obj.Label)
+        path = os.path.join(WORK, obj.Name + ".bpt")
+        with open(path, "w") as f:
+            f.write(SagittaCore.model_to_bpt(model))
+        return path, model
+
+    def assert_interval(self, ours, cli):
+        self.assertAlmostEqual(ours["lower"], cli["lower"], delta=1e-12 * max(1.0, abs(cli["lower"])))
+        if cli["upper"] is None:
+            self.assertIsNone(ours["upper"])
+        else:
+            self.assertAlmostEqual(ours["upper"], cli["upper"], delta=1e-12 * max(1.0, abs(cli["upper"])))
+        self.assertEqual(ours["upper_certified"], cli["upper_certified"])
+
+    def test_features_match_cli(self):
+        for source in (self.bezier, self.bspline):
+            brep_before = source.Shape.exportBrepToString()
+            path, model = self.model_file(source)
+            self.assertGreaterEqual(model.patch_count, 6 if source is self.bspline else 1)
+            for params in SCHEMES:
+                with self.subTest(source=source.Label, scheme=params["scheme"]):
+                    kwargs = {k: v for k, v in params.items()}
+                    obj = SagittaCore.make_tessellation(self.doc, [(source, [])], **kwargs)
+                    stats = cli_json(["tessellate", path] + scheme_args(params) + ["--stats"], "stats.json")
+                    self.assertEqual(obj.Mesh.CountFacets, stats["triangles"])
+                    self.assertEqual(obj.Triangles, stats["triangles"])
+                    self.assertEqual(obj.Mesh.CountPoints, stats["vertices"])
+                    self.assertEqual(obj.DegenerateTriangles, stats["degenerate_triangles"])
+                    self.assertEqual(obj.Patches, stats["patches"])
+
+                    report = SagittaCore.validate_tessellation(obj, max_depth=6)
+                    cli = cli_json(["validate", path] + scheme_args(params) + ["--max-depth", "6", "--json"], "validate.json")
+                    for key in ("hausdorff", "mesh_to_surface", "surface_to_mesh"):
+                        self.assert_interval(report[key], cli[key])
+                    for key in ("triangles", "vertices", "certified", "coverage_ok", "method", "subtriangles",
+                                "triangles_at_depth_budget"):
+                        self.assertEqual(report[key], cli[key], key)
+                    for key in ("edges", "open_edges", "model_boundary_edges", "crack_edges", "t_junctions",
+                                "non_manifold_edges", "inconsistent_orientation_edges", "degenerate_triangles",
+                                "duplicated_faces", "watertight"):
+                        self.assertEqual(report["topology"][key], cli["topology"][key], key)
+                    self.assertEqual(obj.ErrorLower, cli["hausdorff"]["lower"])
+                    self.assertEqual(len(obj.FaceColors), obj.Mesh.CountFacets)
+            self.assertEqual(source.Shape.exportBrepToString(), brep_before, "the source shape was modified")
+
+    def test_fit_meets_target_and_is_minimal(self):
+        path, _ = self.model_file(self.bezier)
+        obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=1)
+        target = 2e-3
+        params, report = SagittaCore.fit_tessellation(obj, target, max_depth=6)
+        self.assertLessEqual(report["hausdorff"]["upper"], target)
+        self.assertEqual(obj.Level, params["level"])
+        cli = cli_json(["validate", path, "--level", str(obj.Level), "--max-depth", "6", "--json"], "fit.json")
+        self.assertLessEqual(cli["hausdorff"]["upper"], target)
+        if obj.Level > 0:
+            coarser = cli_json(["validate", path, "--level", str(obj.Level - 1), "--max-depth", "6", "--json"], "fit1.json")
+            self.assertGreater(coarser["hausdorff"]["upper"], target)
+
+    def test_recomputes_on_property_and_source_change(self):
+        obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=3)
+        self.assertEqual(obj.Triangles, 2 * 8 * 8)
+        obj.Level = 2
+        self.doc.recompute()
+        self.assertEqual(obj.Mesh.CountFacets, 2 * 4 * 4)
+        moved = self.doc.addObject("Part::Feature", "Moving")
+        moved.Shape = bezier_face()
+        follower = SagittaCore.make_tessellation(self.doc, [(moved, [])], scheme="uniform", level=1)
+        moved.Shape = bezier_face().translated(FreeCAD.Vector(0, 0, 5))
+        self.doc.recompute()
+        # FreeCAD meshes keep float coordinates.
+        self.assertAlmostEqual(follower.Mesh.BoundBox.ZMin, moved.Shape.BoundBox.ZMin, delta=1e-5)
+
+    def test_undo_restores_document(self):
+        names = sorted(o.Name for o in self.doc.Objects)
+        obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, ["Face1"])])
+        self.assertIn(obj.Name, [o.Name for o in self.doc.Objects])
+        self.doc.undo()
+        self.assertEqual(sorted(o.Name for o in self.doc.Objects), names)
+        self.doc.redo()
+        self.assertEqual(len(self.doc.Objects), len(names) + 1)
+        self.doc.undo()
+
+    def test_wrong_selection_changes_nothing(self):
+        mesh_obj = self.doc.addObject("Mesh::Feature", "NotAShape")
+        self.doc.recompute()
+        names = sorted(o.Name for o in self.doc.Objects)
+        undo_count = self.doc.UndoCount
+        for links in ([], [(mesh_obj, [])]):
+            with self.assertRaises(SagittaCore.SagittaError):
+                SagittaCore.make_tessellation(self.doc, links)
+        obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=1)
+        undo_count = self.doc.UndoCount
+        names = sorted(o.Name for o in self.doc.Objects)
+        with self.assertRaises(SagittaCore.SagittaError):  # invalid parameter: refused, old values kept
+            SagittaCore.edit_tessellation(obj, Scheme="esc", Level=-1)
+        self.assertEqual(obj.Scheme, "uniform")
+        self.assertEqual(obj.Level, 1)
+        with self.assertRaises(SagittaCore.SagittaError):
+            SagittaCore.validate_tessellation(self.bezier)
+        self.assertEqual(sorted(o.Name for o in self.doc.Objects), names)
+        self.assertEqual(self.doc.UndoCount, undo_count)
+
+    def test_import_teapot_and_time_level_4(self):
+        path = os.path.join(SHARED, "teapot.bpt")
+        if not os.path.exists(path):
+            self.skipTest("shared data absent")
+        doc = FreeCAD.newDocument("Teapot")
+        SagittaImport.insert(path, doc.Name)
+        teapot = doc.Objects[0]
+        self.assertEqual(len(teapot.Shape.Faces), 32)
+        self.assertTrue(all(isinstance(f.Surface, Part.BezierSurface) for f in teapot.Shape.Faces))
+        start = time.perf_counter()
+        obj = SagittaCore.make_tessellation(doc, [(teapot, [])], scheme="uniform", level=4)
+        report = SagittaCore.validate_tessellation(obj)
+        seconds = time.perf_counter() - start
+        # The reference reads the original file, not what the importer made of it.
+        cli = cli_json(["validate", path, "--level", "4", "--json"], "teapot.json")
+        self.assertEqual(obj.Mesh.CountFacets, cli["triangles"])
+        self.assert_interval(report["hausdorff"], cli["hausdorff"])
+        print("\nTIMING teapot level 4 tessellate + validate inside FreeCAD: %.3f s (validation %.3f s)"
+              % (seconds, report["seconds"]), flush=True)
+        FreeCAD.closeDocument(doc.Name)
+
+    def test_import_rejects_malformed_file(self):
+        bad = os.path.join(WORK, "bad.bpt")
+        with open(bad, "w") as f:
+            f.write("1\n3 3\n0 0 0\n")
+        doc = FreeCAD.newDocument("Bad")
+        self.assertIsNone(SagittaImport.import_file(bad, doc))
+        self.assertEqual(len(doc.Objects), 0)
+        with open(bad) as f:
+            self.assertEqual(f.read(), "1\n3 3\n0 0 0\n")
+        FreeCAD.closeDocument(doc.Name)
+
+
+def main():
+    try:
+        result = unittest.TextTestRunner(stream=sys.stdout, verbosity=2).run(
+            unittest.defaultTestLoader.loadTestsFromTestCase(HeadlessTest))
+        code = 0 if result.wasSuccessful() else 1
+    except BaseException:
+        traceback.print_exc()
+        code = 2
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)  # freecadcmd would otherwise not pass the code on
+
+
+main()
