@@ -279,6 +279,7 @@ def make_tessellation(doc, links, scheme=None, level=None, threshold=None, base_
         if FreeCAD.GuiUp:
             import SagittaGui
             SagittaGui.ViewProviderTessellation(obj.ViewObject)
+            obj.ViewObject.Lighting = "Two side"  # patch files orient their normals either way
         obj.Source = [(o, tuple(subs) if subs else "") for o, subs in links]
         obj.Scheme = scheme or prefs["scheme"]
         obj.Level = prefs["level"] if level is None else level
