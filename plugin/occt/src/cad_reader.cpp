@@ -166,6 +166,17 @@ std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1,
   return out;
 }
 
+// Reverses the u direction of a patch (row i becomes row degree_u - i): same surface, opposite normal.
+void reverse_u(BezierPatch& p) {
+  for (int i = 0; i < p.rows() / 2; ++i) {
+    for (int j = 0; j < p.cols(); ++j) {
+      const size_t a = static_cast<size_t>(i * p.cols() + j), b = static_cast<size_t>((p.degree_u - i) * p.cols() + j);
+      std::swap(p.points[a], p.points[b]);
+      if (p.rational()) std::swap(p.weights[a], p.weights[b]);
+    }
+  }
+}
+
 // Makes boundary control points of patches from different faces bit-identical when they agree within
 // `tol`: each point joins the first representative found within tol (grid hash), and every point of a
 // cluster that spans two or more faces is replaced by the representative. Interior points are untouched.
@@ -340,6 +351,11 @@ CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name
     } catch (const Standard_Failure& e) {
       r.reason = std::string("OCCT failed on the face (") + e.GetMessageString() + ")";
       patches.clear();
+    }
+    // A reversed face's outward normal is -dS/du x dS/dv: reverse the u direction so that every
+    // patch's normal (and so every triangle's winding) follows the B-rep's orientation.
+    if (face.Orientation() == TopAbs_REVERSED) {
+      for (BezierPatch& p : patches) reverse_u(p);
     }
     if (patches.empty()) {
       r.status = "skipped";

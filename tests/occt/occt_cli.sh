@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# End-to-end checks of CAD input and `sagitta peer occt`. Env: SAGITTA, SHARED_DATA. Skips without data.
+set -euo pipefail
+: "${SAGITTA:?}" "${SHARED_DATA:?}"
+if [[ ! -f "$SHARED_DATA/cad/bottle.brep" || ! -f "$SHARED_DATA/teapot.bpt" ]]; then
+  echo "shared data absent: skipping"; exit 0
+fi
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+field() { python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))" "$1" "$2"; }
+
+# Acceptance 3: every face tessellated or reported with a reason, exit 0.
+for f in cad/bottle.brep cad/screw.step; do
+  "$SAGITTA" tessellate "$SHARED_DATA/$f" --scheme uniform --level 2 --stats "$tmp/s.json" >/dev/null || fail "$f: exit $?"
+  total=$(field "$tmp/s.json" "d['faces_tessellated'] + d['faces_trimmed'] + d['faces_skipped'] == d['faces']")
+  [[ $total == True ]] || fail "$f: faces not all accounted for"
+  [[ $(field "$tmp/s.json" "all(x['reason'] for x in d['trimmed'] + d['skipped'])") == True ]] || fail "$f: a face without reason"
+  [[ $(field "$tmp/s.json" "'bezier_patches' in d") == True ]] || fail "$f: no bezier_patches"
+done
+
+# Acceptance 1: shell1 untrimmed faces crack-free.
+"$SAGITTA" validate "$SHARED_DATA/cad/shell1.brep" --scheme uniform --level 1 --require-watertight --json "$tmp/v.json" >/dev/null \
+  || fail "shell1: validate --require-watertight"
+[[ $(field "$tmp/v.json" "d['faces']") == 99 ]] || fail "shell1: 99 faces"
+
+# Acceptance 4 (at 1e-2 to stay fast; docs/ACCURACY.md has 1e-3 and 1e-4).
+out=$("$SAGITTA" peer occt "$SHARED_DATA/teapot.bpt" --deflection 1e-2 --json "$tmp/p.json" --out "$tmp/p.ply")
+[[ $out == *"hausdorff in ["* ]] || fail "peer occt prints the interval: $out"
+[[ $(field "$tmp/p.json" "d['certified'] and d['route'] == 'bernstein'") == True ]] || fail "peer occt: not certified"
+[[ -s "$tmp/p.ply" ]] || fail "peer occt --out"
+
+# Malformed CAD input: one line naming the file, exit 2.
+: > "$tmp/empty.step"
+printf 'ISO-10303-21;\nHEADER;\n' > "$tmp/cut.step"
+printf 'not iges\n' > "$tmp/bad.igs"
+printf 'garbage\n' > "$tmp/bad.brep"
+for f in "$tmp/empty.step" "$tmp/cut.step" "$tmp/bad.igs" "$tmp/bad.brep"; do
+  set +e
+  err=$("$SAGITTA" tessellate "$f" 2>&1 >/dev/null); code=$?
+  set -e
+  [[ $code == 2 ]] || fail "$f: exit $code, expected 2"
+  [[ $err == "sagitta: $f"* ]] || fail "$f: message '$err'"
+  [[ $(printf '%s\n' "$err" | wc -l) == 1 ]] || fail "$f: more than one line: $err"
+done
+set +e
+"$SAGITTA" peer occt "$tmp/empty.step" --deflection 1e-2 >/dev/null 2>&1; code=$?
+set -e
+[[ $code == 2 ]] || fail "peer occt on an empty file: exit $code"
+cp "$SHARED_DATA/cad/wing.brep" "$tmp/w.brep"
+set +e
+"$SAGITTA" peer occt "$tmp/w.brep" --out "$tmp/w.brep" >/dev/null 2>&1; code=$?
+set -e
+[[ $code == 2 ]] || fail "peer occt must refuse output == input"
+cmp -s "$tmp/w.brep" "$SHARED_DATA/cad/wing.brep" || fail "the input was modified"
+echo "occt_cli: all checks passed"
