@@ -44,8 +44,9 @@ struct FittedModel {
   std::vector<double> parameters;
   std::vector<double> residuals;  // log(measured) - log(predicted), per sample used
   double cost = 0.0;              // Ceres' final cost (robust loss applied)
-  // The model's prediction at a parameter value x (h, rho or 1/K).
-  double predict(double x) const;
+  // The model's prediction at a parameter value x (h, rho or 1/K); esc_floor_plus_power also takes
+  // the level (default: `level`).
+  double predict(double x, int at_level = -1) const;
 };
 
 struct FitProgress {
@@ -54,11 +55,12 @@ struct FitProgress {
   int steps = 0;      // an estimate; 0 when unknown
 };
 
-// Certification settings for fitting: fewer lower-bound candidates than the default (the fit only
-// uses the upper bound, which does not depend on them).
+// Certification settings for fitting: fewer lower-bound candidates and a smaller branch-and-bound
+// budget than the default (the fit only uses the upper bound, which does not depend on them).
 inline CertifyOptions fit_certify_defaults() {
   CertifyOptions o;
   o.lower_candidates = 4;
+  o.lower_node_budget = 20000;
   return o;
 }
 
