@@ -25,6 +25,7 @@ struct Command {
 Command register_tessellate(CLI::App& app);
 Command register_run(CLI::App& app);
 Command register_validate(CLI::App& app);
+Command register_scene(CLI::App& app);
 Command register_fit(CLI::App& app);
 Command register_peer(CLI::App& app);
 

@@ -1,0 +1,448 @@
+#include "scene_plan.hpp"
+
+#include "sagitta/certify.hpp"
+#include "sagitta/esc.hpp"
+#include "sagitta/fixtures.hpp"
+#include "sagitta/io/model_io.hpp"
+#include "sagitta/mesh_check.hpp"
+#include "sagitta/uniform.hpp"
+
+#include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <map>
+
+namespace sagitta::scene {
+
+namespace {
+
+// ESC thresholds per model: scale * 2^-index for index 0..kEscSteps-1, and 0 (every candidate) at kEscSteps.
+constexpr int kEscSteps = 24;
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// +1 / -1 when the model is closed and consistently oriented (du x dv out of / into the solid), else 0.
+int closed_orientation(const Model& model, const Topology& topology) {
+  if (topology.free_edges() != 0 || topology.nonmanifold_edges() != 0 || !topology.near_misses.empty()) return 0;
+  UniformParams params;
+  params.segments = 4;
+  params.normals = false;
+  const Tessellation mesh = tessellate_uniform(model, topology, params);
+  const TopologyReport report = check_mesh_topology(mesh, &model, &topology);
+  if (!report.watertight() || report.open_edges != 0 || report.inconsistent_orientation_edges != 0) return 0;
+  double volume = 0.0;  // six times the signed volume (divergence theorem)
+  for (const Triangle& t : mesh.triangles) {
+    volume += glm::dot(mesh.positions[t[0]], glm::cross(mesh.positions[t[1]], mesh.positions[t[2]]));
+  }
+  return volume > 0.0 ? 1 : volume < 0.0 ? -1 : 0;
+}
+
+// The triangles of one patch as a one-patch tessellation (vertices renumbered, patch index 0).
+Tessellation patch_submesh(const Tessellation& mesh, uint32_t patch) {
+  Tessellation out;
+  std::map<uint32_t, uint32_t> renumber;
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    if (mesh.triangle_patch[t] != patch) continue;
+    Triangle tri;
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t id = mesh.triangles[t][static_cast<size_t>(k)];
+      auto [it, fresh] = renumber.emplace(id, static_cast<uint32_t>(out.positions.size()));
+      if (fresh) {
+        out.positions.push_back(mesh.positions[id]);
+        const Vec2& uv = mesh.triangle_uv[t][static_cast<size_t>(k)];
+        out.surface_points.push_back({0, uv.x, uv.y});
+      }
+      tri[static_cast<size_t>(k)] = it->second;
+    }
+    out.triangles.push_back(tri);
+    out.triangle_patch.push_back(0);
+    out.triangle_uv.push_back(mesh.triangle_uv[t]);
+  }
+  return out;
+}
+
+// Certified model-space error of one patch's triangles: the largest per-triangle bound (both
+// directions) the validator proves for them against that patch alone.
+double certified_patch_error(const BezierPatch& patch, const Tessellation& mesh, uint32_t p) {
+  Model one;
+  one.patches.push_back(patch);
+  const Tessellation sub = patch_submesh(mesh, p);
+  if (sub.triangles.empty()) return 0.0;  // every triangle collapsed: the patch is a point or a curve
+  // Only the per-triangle upper bounds are used: the certified lower bounds get a token budget, and
+  // the refinement stops at depth 5 (a looser bound only ever asks for a finer level; depth 8 spends
+  // seconds on coarse levels that are far from any tolerance).
+  CertifyOptions options;
+  options.lower_candidates = 1;
+  options.lower_node_budget = 1000;
+  options.max_depth = 5;
+  const DistanceReport report = certify_distance(one, sub, options);
+  double error = 0.0;
+  for (double e : report.triangle_upper) error = std::max(error, e);
+  if (!report.coverage_ok) error = std::numeric_limits<double>::infinity();
+  return error;
+}
+
+// Per-model tessellation with one parameter per patch, and the error caches of the level choice.
+class Planner {
+ public:
+  explicit Planner(const LoadedScene& scene) : scene_(scene) {
+    esc_ = scene.scene.scheme == "esc";
+    finest_ = esc_ ? kEscSteps : scene.scene.max_level;
+    plain_.resize(scene.models.size());
+    for (const Model& m : scene.models) scale_.push_back(model_box(m).diagonal());
+  }
+
+  bool esc() const { return esc_; }
+  int finest() const { return finest_; }
+  double threshold(size_t model, int index) const {
+    return index >= kEscSteps ? 0.0 : scale_[model] * std::ldexp(1.0, -index);
+  }
+
+  // Model-space tessellation of `model` with parameter q[p] for patch p.
+  Tessellation tessellate(size_t model, const std::vector<int>& q) const {
+    const Model& m = scene_.models[model];
+    const Topology& topology = scene_.topologies[model];
+    if (esc_) {
+      EscParams params;
+      params.level = std::min(scene_.scene.max_level, kMaxEscLevel);
+      for (int index : q) params.patch_thresholds.push_back(threshold(model, index));
+      return tessellate_esc(m, topology, params);
+    }
+    UniformParams params;
+    params.patch_levels = q;
+    return tessellate_uniform(m, topology, params);
+  }
+
+  // Certified error of patch p of `model` when every patch uses parameter q (cached).
+  double plain_error(size_t model, uint32_t p, int q) {
+    std::vector<std::vector<double>>& table = plain_[model];
+    if (table.size() <= static_cast<size_t>(q)) table.resize(static_cast<size_t>(q) + 1);
+    std::vector<double>& errors = table[static_cast<size_t>(q)];
+    if (errors.empty()) {
+      const auto start = std::chrono::steady_clock::now();
+      const Model& m = scene_.models[model];
+      const Tessellation mesh = tessellate(model, std::vector<int>(m.patches.size(), q));
+      errors.resize(m.patches.size());
+      tbb::parallel_for(size_t{0}, m.patches.size(), [&](size_t k) {
+        errors[k] = certified_patch_error(m.patches[k], mesh, static_cast<uint32_t>(k));
+      });
+      certify_seconds += seconds_since(start);
+    }
+    return errors[p];
+  }
+
+  // Certified error of patch p in `mesh` (tessellated with parameters q), cached by the patch's own
+  // parameter and the parameters its sides were decided with.
+  double stitched_error(size_t model, uint32_t p, const std::vector<int>& q, const Tessellation& mesh) {
+    const std::array<int, 4> sides = side_parameters(model, p, q);
+    const auto key = std::make_tuple(model, p, q[p], sides);
+    auto it = stitched_.find(key);
+    if (it != stitched_.end()) return it->second;
+    const auto start = std::chrono::steady_clock::now();
+    const double error = certified_patch_error(scene_.models[model].patches[p], mesh, p);
+    certify_seconds += seconds_since(start);
+    stitched_.emplace(key, error);
+    return error;
+  }
+
+  // Per side of patch p: the finest parameter among the patches sharing it (-1: collapsed side).
+  std::array<int, 4> side_parameters(size_t model, uint32_t p, const std::vector<int>& q) const {
+    const Topology& topology = scene_.topologies[model];
+    std::array<int, 4> sides{};
+    for (Side s : kAllSides) {
+      const Topology::SideInfo& info = topology.side(p, s);
+      int finest = -1;
+      if (!info.collapsed) {
+        for (const SideRef& use : topology.edges[static_cast<size_t>(info.edge)].uses) finest = std::max(finest, q[use.patch]);
+      }
+      sides[static_cast<size_t>(s)] = finest;
+    }
+    return sides;
+  }
+
+  double certify_seconds = 0.0;
+
+ private:
+  const LoadedScene& scene_;
+  bool esc_ = false;
+  int finest_ = 0;
+  std::vector<double> scale_;
+  std::vector<std::vector<std::vector<double>>> plain_;  // [model][q][patch]
+  std::map<std::tuple<size_t, uint32_t, int, std::array<int, 4>>, double> stitched_;
+};
+
+// World-space control points of a patch under an affine transform.
+std::vector<Vec3> transformed_points(const BezierPatch& patch, const glm::dmat4& m) {
+  std::vector<Vec3> out;
+  out.reserve(patch.points.size());
+  for (const Vec3& p : patch.points) out.push_back(Vec3(m * glm::dvec4(p, 1.0)));
+  return out;
+}
+
+// True when every control point lies strictly outside one plane of the view frustum (the eye plane
+// or one of the four sides): by the convex hull property the patch is then invisible.
+bool outside_view(const std::vector<Vec3>& points, const View& view) {
+  bool behind = true, left = true, right = true, below = true, above = true;
+  for (const Vec3& x : points) {
+    const Vec3 d = x - view.eye;
+    const double z = glm::dot(d, view.forward), sx = glm::dot(d, view.right), sy = glm::dot(d, view.up);
+    behind = behind && z <= 0.0;
+    right = right && sx > view.tan_x * z;
+    left = left && -sx > view.tan_x * z;
+    above = above && sy > view.tan_y * z;
+    below = below && -sy > view.tan_y * z;
+  }
+  return behind || left || right || below || above;
+}
+
+// True when the normal cone proves every point of the (polynomial) patch faces away from the eye:
+// du x dv is a non-negative combination of the cross products of the control net's u- and
+// v-differences, so if every such product (times `outward`) makes a positive dot product with
+// (x - eye) for every control point x, so does the outward normal at every surface point.
+bool faces_away(const BezierPatch& patch, const std::vector<Vec3>& world, int outward, const View& view) {
+  if (patch.rational() || outward == 0) return false;
+  const int rows = patch.rows(), cols = patch.cols();
+  auto at = [&](int i, int j) { return world[static_cast<size_t>(i * cols + j)]; };
+  std::vector<Vec3> du, dv;
+  for (int i = 0; i + 1 < rows; ++i) {
+    for (int j = 0; j < cols; ++j) du.push_back(at(i + 1, j) - at(i, j));
+  }
+  for (int i = 0; i < rows; ++i) {
+    for (int j = 0; j + 1 < cols; ++j) dv.push_back(at(i, j + 1) - at(i, j));
+  }
+  for (const Vec3& a : du) {
+    for (const Vec3& b : dv) {
+      const Vec3 n = static_cast<double>(outward) * glm::cross(a, b);
+      for (const Vec3& x : world) {
+        if (!(glm::dot(x - view.eye, n) > 0.0)) return false;
+      }
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+double View::depth(const Vec3& x) const { return glm::dot(x - eye, forward); }
+
+View make_view(const io::SceneCamera& camera) {
+  View view;
+  view.eye = camera.eye;
+  view.forward = glm::normalize(camera.target - camera.eye);
+  view.right = glm::normalize(glm::cross(view.forward, camera.up));
+  view.up = glm::cross(view.right, view.forward);
+  view.tan_y = std::tan(0.5 * camera.fov_y_degrees * M_PI / 180.0);
+  view.tan_x = view.tan_y * static_cast<double>(camera.width) / static_cast<double>(camera.height);
+  view.focal_px = 0.5 * static_cast<double>(camera.height) / view.tan_y;
+  return view;
+}
+
+double largest_stretch(const glm::dmat4& transform) {
+  // Square root of the largest eigenvalue of A^T A (symmetric 3x3), by power iteration from a
+  // start that is not orthogonal to it, then rounded up slightly.
+  const glm::dmat3 a(transform);
+  const glm::dmat3 ata = glm::transpose(a) * a;
+  double frobenius = 0.0;
+  for (int c = 0; c < 3; ++c) frobenius += glm::dot(ata[c], ata[c]);
+  Vec3 x(1.0, 0.7, 0.3);
+  double lambda = 0.0;
+  for (int it = 0; it < 200; ++it) {
+    const Vec3 y = ata * x;
+    const double len = glm::length(y);
+    if (!(len > 0.0)) break;
+    lambda = glm::dot(x, y) / glm::dot(x, x);
+    x = y / len;
+  }
+  // The power iteration approaches from below; the Frobenius norm of A^T A bounds it from above.
+  // Use the smaller of (converged value + margin) and that upper bound.
+  const double upper = std::sqrt(std::sqrt(frobenius));
+  return std::min(upper, std::sqrt(lambda) * (1.0 + 1e-9));
+}
+
+LoadedScene load_scene(const io::Scene& scene, const std::string& scene_dir, const std::string& data_dir) {
+  LoadedScene loaded;
+  loaded.scene = scene;
+  for (const io::SceneModel& m : scene.models) {
+    Model model;
+    const std::string& source = m.source;
+    if (source.rfind("fixture:", 0) == 0) {
+      const std::string name = source.substr(8);
+      model = name == "pillow_box" ? fixtures::pillow_box() : name == "rational_torus" ? fixtures::rational_torus()
+                                                                                         : fixtures::default_model();
+    } else {
+      std::filesystem::path path;
+      if (source.rfind("data:", 0) == 0) {
+        if (data_dir.empty()) {
+          throw InputError("scene model \"" + m.name + "\": " + source +
+                           " needs the shared data folder (--data-dir or SAGITTA_DATA_DIR)");
+        }
+        path = std::filesystem::path(data_dir) / source.substr(5);
+      } else {
+        path = std::filesystem::path(source);
+        if (path.is_relative()) path = std::filesystem::path(scene_dir) / path;
+      }
+      if (!std::filesystem::exists(path)) {
+        throw InputError("scene model \"" + m.name + "\": " + path.string() + ": no such file");
+      }
+      model = io::read_patch_model(path.string());
+    }
+    model.name = m.name;
+    loaded.topologies.push_back(build_topology(model));
+    loaded.facing.push_back(closed_orientation(model, loaded.topologies.back()));
+    if (scene.backface_culling == "off") loaded.facing.back() = 0;
+    loaded.models.push_back(std::move(model));
+  }
+  return loaded;
+}
+
+SceneResult tessellate_scene(const LoadedScene& loaded, const std::function<void(size_t, size_t)>& progress) {
+  const io::Scene& scene = loaded.scene;
+  const View view = make_view(scene.camera);
+  Planner planner(loaded);
+  SceneResult result;
+  result.parameter_histogram.assign(static_cast<size_t>(planner.finest()) + 1, 0);
+  for (const Model& m : loaded.models) {
+    ModelCounts counts;
+    counts.name = m.name;
+    result.models.push_back(counts);
+  }
+  if (planner.esc()) {
+    for (size_t m = 0; m < loaded.models.size(); ++m) {
+      for (int q = 0; q <= kEscSteps; ++q) result.esc_thresholds.push_back(planner.threshold(m, q));
+    }
+  }
+  result.mesh.surface_points.clear();
+  double tessellate_seconds = 0.0;
+  const auto start_all = std::chrono::steady_clock::now();
+
+  for (size_t inst = 0; inst < scene.instances.size(); ++inst) {
+    const io::SceneInstance& instance = scene.instances[inst];
+    const size_t mi = instance.model;
+    const Model& model = loaded.models[mi];
+    const size_t np = model.patches.size();
+    const double stretch = largest_stretch(instance.transform);
+    const int outward = loaded.facing[mi] * (glm::determinant(glm::dmat3(instance.transform)) < 0.0 ? -1 : 1);
+    std::vector<PatchChoice> choices(np);
+    std::vector<int> q(np, 0);
+    std::vector<double> min_depth(np, 0.0);
+    ModelCounts& counts = result.models[mi];
+    ++counts.instances;
+    counts.patches += np;
+
+    // 1. Culling, the error the tolerance allows, and the coarsest parameter meeting it on its own.
+    for (uint32_t p = 0; p < np; ++p) {
+      PatchChoice& c = choices[p];
+      const std::vector<Vec3> world = transformed_points(model.patches[p], instance.transform);
+      if (outside_view(world, view)) {
+        c.state = PatchState::kOutsideView;
+        continue;
+      }
+      if (faces_away(model.patches[p], world, outward, view)) {
+        c.state = PatchState::kBackFacing;
+        continue;
+      }
+      double depth = std::numeric_limits<double>::infinity();
+      for (const Vec3& x : world) depth = std::min(depth, view.depth(x));
+      min_depth[p] = depth;
+      // Where the box reaches the eye plane no finite level is provably enough: use the finest.
+      c.required_error = depth > 0.0 ? scene.tolerance_pixels * depth / (view.focal_px * stretch) : 0.0;
+      int level = 0;
+      while (level < planner.finest() && !(planner.plain_error(mi, p, level) <= c.required_error)) ++level;
+      q[p] = level;
+    }
+
+    // 2. Stitching: a patch next to a finer neighbour is triangulated differently along that side;
+    // its certified error is checked as tessellated and its parameter raised until it holds.
+    Tessellation mesh;
+    for (;;) {
+      const auto start = std::chrono::steady_clock::now();
+      mesh = planner.tessellate(mi, q);
+      tessellate_seconds += seconds_since(start);
+      bool changed = false;
+      for (uint32_t p = 0; p < np; ++p) {
+        PatchChoice& c = choices[p];
+        if (c.state != PatchState::kVisible) continue;
+        const std::array<int, 4> sides = planner.side_parameters(mi, p, q);
+        const bool stitched = std::any_of(sides.begin(), sides.end(), [&](int s) { return s > q[p]; });
+        c.certified_error = stitched ? planner.stitched_error(mi, p, q, mesh) : planner.plain_error(mi, p, q[p]);
+        if (!(c.certified_error <= c.required_error) && q[p] < planner.finest() && stitched) {
+          ++q[p];
+          ++result.stitch_refinements;
+          changed = true;
+        }
+      }
+      if (!changed) break;
+    }
+
+    // 3. Record the choices and append the visible patches' triangles in world space.
+    const glm::dmat3 linear(instance.transform);
+    const glm::dmat3 normal_map = glm::transpose(glm::inverse(linear));
+    std::vector<int64_t> world_patch(np, -1);
+    for (uint32_t p = 0; p < np; ++p) {
+      PatchChoice& c = choices[p];
+      c.parameter = q[p];
+      if (c.state == PatchState::kOutsideView) {
+        ++result.culled_outside;
+        continue;
+      }
+      if (c.state == PatchState::kBackFacing) {
+        ++result.culled_backfacing;
+        continue;
+      }
+      c.error_pixels = min_depth[p] > 0.0 ? c.certified_error * stretch * view.focal_px / min_depth[p]
+                                          : std::numeric_limits<double>::infinity();
+      c.over_tolerance = !(c.error_pixels <= scene.tolerance_pixels);
+      result.over_tolerance += c.over_tolerance ? 1 : 0;
+      ++result.parameter_histogram[static_cast<size_t>(q[p])];
+      ++counts.visible_patches;
+      world_patch[p] = static_cast<int64_t>(result.world.patches.size());
+      BezierPatch w = model.patches[p];
+      w.points = transformed_points(model.patches[p], instance.transform);
+      result.world.patches.push_back(std::move(w));
+      result.world_instance.push_back(static_cast<uint32_t>(inst));
+      result.world_model_patch.push_back(p);
+    }
+    std::vector<uint32_t> renumber(mesh.positions.size(), UINT32_MAX);
+    Tessellation& out = result.mesh;
+    for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+      const int64_t wp = world_patch[mesh.triangle_patch[t]];
+      if (wp < 0) continue;
+      Triangle tri;
+      for (size_t k = 0; k < 3; ++k) {
+        const uint32_t id = mesh.triangles[t][k];
+        if (renumber[id] == UINT32_MAX) {
+          if (out.positions.size() >= UINT32_MAX) throw InputError("the scene needs more than 2^32 vertices");
+          renumber[id] = static_cast<uint32_t>(out.positions.size());
+          out.positions.push_back(Vec3(instance.transform * glm::dvec4(mesh.positions[id], 1.0)));
+          const Vec3 n = normal_map * mesh.normals[id];
+          out.normals.push_back(glm::length(n) > 0.0 ? glm::normalize(n) : mesh.normals[id]);
+          const Vec2& uv = mesh.triangle_uv[t][k];
+          out.surface_points.push_back({static_cast<uint32_t>(wp), uv.x, uv.y});
+        }
+        tri[k] = renumber[id];
+      }
+      out.triangles.push_back(tri);
+      out.triangle_patch.push_back(static_cast<uint32_t>(wp));
+      out.triangle_uv.push_back(mesh.triangle_uv[t]);
+      ++counts.triangles;
+    }
+    out.degenerate_triangles += mesh.degenerate_triangles;
+    result.choices.push_back(std::move(choices));
+    if (progress) progress(inst + 1, scene.instances.size());
+  }
+  result.certify_seconds = planner.certify_seconds;
+  result.tessellate_seconds = seconds_since(start_all) - planner.certify_seconds;
+  (void)tessellate_seconds;
+  return result;
+}
+
+}  // namespace sagitta::scene
