@@ -186,6 +186,7 @@ class TessellationFeature:
         add("App::PropertyInteger", "Level", "Sagitta",
             "uniform: 2^L segments per side; esc: pattern level; pn: segments per edge")
         add("App::PropertyInteger", "BaseLevel", "Sagitta", "pn: the uniform base level it refines")
+        add("App::PropertyInteger", "Segments", "Sagitta", "uniform: N segments per side instead of 2^Level when > 0")
         add("App::PropertyFloat", "Threshold", "Sagitta", "esc: distance threshold (model units)")
         add("App::PropertyFloat", "TargetError", "Sagitta", "Fit to target error: the certified error wanted")
         if "Scheme" not in existing:
@@ -223,6 +224,8 @@ class TessellationFeature:
 
 def scheme_parameters(obj):
     """The feature's parameters as keyword arguments of _sagitta.tessellate (the CLI's options)."""
+    if obj.Scheme == "uniform" and obj.Segments > 0:
+        return {"scheme": "uniform", "segments": obj.Segments}
     params = {"scheme": obj.Scheme, "level": obj.Level}
     if obj.Scheme == "esc":
         params["threshold"] = obj.Threshold
@@ -294,7 +297,7 @@ def make_tessellation(doc, links, scheme=None, level=None, threshold=None, base_
 
 
 def edit_tessellation(obj, **values):
-    """Sets feature parameters (Scheme, Level, Threshold, BaseLevel, TargetError) and recomputes, in
+    """Sets feature parameters (Scheme, Level, Segments, Threshold, BaseLevel, TargetError) and recomputes, in
     one transaction; on failure the old values are restored."""
     def work():
         for key, value in values.items():
@@ -435,52 +438,31 @@ def write_html_report(report, label, path):
 # ---------------------------------------------------------------------------------------------
 # Fitting
 
-def fit_tessellation(obj, target_error, max_depth=None, max_level=7):
-    """Finds the cheapest parameters of the feature's scheme whose certified Hausdorff upper bound is
-    <= target_error and sets them (with TargetError) in one transaction. uniform and pn: the smallest
-    level that meets the target (levels are tried in increasing order); esc: at the smallest level
-    that can meet it with every candidate inserted, the largest threshold found by bisection (12
-    steps). Returns (parameters, report). Raises SagittaError when no level up to max_level does."""
+def fit_tessellation(obj, target_error):
+    """Fits the feature's scheme to a certified target error with the library's fit (`sagitta fit`)
+    and sets the chosen parameters (uniform: Segments; esc: Level and Threshold; pn: Level and
+    BaseLevel) and TargetError in one transaction. Returns the fit report (the fields of `sagitta
+    fit --json`). Raises SagittaError, changing nothing, when the target cannot be met."""
     if not is_tessellation(obj):
         raise SagittaError("%s is not a Sagitta tessellation" % obj.Label)
     if not target_error > 0:
         raise SagittaError("The target error must be > 0")
-    depth = preferences()["max_depth"] if max_depth is None else max_depth
     model, _ = shape_model(obj.Source, obj.Label)
-
-    def certified(params):
-        mesh, _ = tessellate_model(model, params)
-        report = run_validation(model, mesh, depth)
-        upper = report["hausdorff"]["upper"]
-        return upper is not None and upper <= target_error, report
-
-    scheme = obj.Scheme
-    found = None
-    for level in range(0 if scheme == "uniform" else 1, max_level + 1):
-        params = {"scheme": scheme, "level": level}
-        if scheme == "esc":
-            params["threshold"] = 0.0
-        if scheme == "pn":
-            params["base_level"] = obj.BaseLevel
-        ok, report = certified(params)
-        if ok:
-            found = (params, report)
-            break
-    if found is None:
-        raise SagittaError("No %s level up to %d meets the target %g" % (scheme, max_level, target_error))
-    params, report = found
-    if scheme == "esc":
-        low, high = 0.0, target_error  # threshold 0 meets the target; search the largest that does
-        for _ in range(12):
-            middle = 0.5 * (low + high)
-            ok, middle_report = certified(dict(params, threshold=middle))
-            if ok:
-                low, report = middle, middle_report
-            else:
-                high = middle
-        params["threshold"] = low
-    values = {"Level": params["level"], "TargetError": target_error}
-    if scheme == "esc":
-        values["Threshold"] = params["threshold"]
+    try:
+        result = _sagitta.fit(model, obj.Scheme, target_error)
+    except ValueError as error:
+        raise SagittaError(str(error))
+    if not result["met"]:
+        raise SagittaError("The %s scheme cannot meet the target %g (best certified error %s)"
+                           % (obj.Scheme, target_error, result["certified_error"]))
+    values = {"TargetError": target_error}
+    if obj.Scheme == "uniform":
+        values["Segments"] = result["segments"]
+    else:
+        values["Level"] = result["level"]
+        if obj.Scheme == "esc":
+            values["Threshold"] = result["threshold"]
+        else:
+            values["BaseLevel"] = result["base_level"]
     edit_tessellation(obj, **values)
-    return params, report
+    return result

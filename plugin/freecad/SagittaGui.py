@@ -107,6 +107,10 @@ class TessellatePanel:
         self.level = QtGui.QSpinBox()
         self.level.setRange(0, 12)
         self.level.setValue(obj.Level)
+        self.segments = QtGui.QSpinBox()
+        self.segments.setRange(0, 4096)
+        self.segments.setValue(obj.Segments)
+        self.segments.setToolTip("uniform: N segments per side instead of 2^Level (0: use Level)")
         self.base_level = QtGui.QSpinBox()
         self.base_level.setRange(0, 10)
         self.base_level.setValue(obj.BaseLevel)
@@ -117,6 +121,7 @@ class TessellatePanel:
         self.stats = QtGui.QLabel(self.stats_text())
         layout.addRow("Scheme", self.scheme)
         layout.addRow("Level", self.level)
+        layout.addRow("Segments (uniform, 0: 2^Level)", self.segments)
         layout.addRow("Base level (pn)", self.base_level)
         layout.addRow("Threshold (esc)", self.threshold)
         layout.addRow(self.stats)
@@ -128,7 +133,7 @@ class TessellatePanel:
     def accept(self):
         try:
             SagittaCore.edit_tessellation(self.obj, Scheme=self.scheme.currentText(), Level=self.level.value(),
-                                          BaseLevel=self.base_level.value(), Threshold=self.threshold.value())
+                                          Segments=self.segments.value(), BaseLevel=self.base_level.value(), Threshold=self.threshold.value())
         except Exception as error:
             report_error("Tessellate", error)
             return False
@@ -236,13 +241,14 @@ class FitPanel:
         try:
             QtGui.QApplication.setOverrideCursor(QtCore.Qt.WaitCursor)
             try:
-                params, report = SagittaCore.fit_tessellation(self.obj, self.target.value())
+                result = SagittaCore.fit_tessellation(self.obj, self.target.value())
             finally:
                 QtGui.QApplication.restoreOverrideCursor()
         except Exception as error:
             report_error("Fit", error)
             return False
-        FreeCAD.Console.PrintMessage("Sagitta fit: %s -> certified error <= %.6g\n" % (params, report["hausdorff"]["upper"]))
+        FreeCAD.Console.PrintMessage("Sagitta fit: %s: %d triangles, certified error <= %.6g\n" % (
+            self.obj.Label, result["triangles"], result["certified_error"]))
         close_panel()
         return True
 
@@ -317,8 +323,8 @@ class ValidateCommand:
 class FitCommand:
     def GetResources(self):
         return {"Pixmap": icon("Sagitta_Fit"), "MenuText": "Fit to target error",
-                "ToolTip": "Choose the selected tessellation's level (and esc threshold) so that its certified error "
-                           "is at most a target"}
+                "ToolTip": "Choose the selected tessellation's parameters (uniform segments, esc level and threshold, "
+                           "pn levels) so that its certified error is at most a target"}
 
     def IsActive(self):
         return FreeCAD.ActiveDocument is not None

@@ -3,9 +3,11 @@
 // and validation go through the CLI's own functions (run_scheme, the validate report fields), so the
 // numbers here are the numbers `sagitta tessellate --stats` and `sagitta validate --json` print.
 #include "commands.hpp"
+#include "fit_json.hpp"
 #include "schemes.hpp"
 
 #include "sagitta/certify.hpp"
+#include "sagitta/fit.hpp"
 #include "sagitta/fixtures.hpp"
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/io/model_io.hpp"
@@ -342,6 +344,23 @@ PYBIND11_MODULE(_sagitta, m) {
   m.def("validate", &validate, py::arg("model"), py::arg("mesh"), py::arg("max_depth") = 8, py::arg("reference_segments") = 32,
         "Certified distance intervals (hausdorff, mesh_to_surface, surface_to_mesh) and topology verdict, as in "
         "`sagitta validate --json`, plus triangle_error (per-triangle certified bound; empty without (u, v))");
+  m.def(
+      "fit",
+      [](const Model& model, const std::string& scheme, double target_error, int max_refinements) {
+        if (!(target_error > 0.0) || !std::isfinite(target_error)) throw InputError("the target error must be a positive number");
+        const FitScheme fit_scheme = parse_fit_scheme(scheme);
+        nlohmann::json doc;
+        {
+          py::gil_scoped_release release;
+          FitOptions options;
+          options.max_refinements = max_refinements;
+          doc = cli::fit_result_json(fit_to_error(model, build_topology(model), fit_scheme, target_error, options));
+        }
+        return to_python(doc);
+      },
+      py::arg("model"), py::arg("scheme"), py::arg("target_error"), py::arg("max_refinements") = 12,
+      "Fit the scheme's parameters to a certified target error, as `sagitta fit --json` reports it (uniform: "
+      "segments; esc: level and threshold; pn: base_level and level)");
   m.def(
       "tessellate_uniform",
       [](const Model& model, std::optional<int> level, std::optional<int> segments) {
