@@ -179,5 +179,8 @@ except Exception:
     traceback.print_exc()
     failures.append("exception")
 print("GUI test: %s" % ("FAILED: " + "; ".join(failures) if failures else "passed"), flush=True)
+if not failures:
+    with open(os.environ["SAGITTA_TEST_RESULT"], "w") as f:
+        f.write("passed")
 sys.stdout.flush()
 os._exit(1 if failures else 0)

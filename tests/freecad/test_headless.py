@@ -268,6 +268,9 @@ def main():
     except BaseException:
         traceback.print_exc()
         code = 2
+    if code == 0:
+        with open(os.environ["SAGITTA_TEST_RESULT"], "w") as f:
+            f.write("passed")
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(code)  # freecadcmd would otherwise not pass the code on
