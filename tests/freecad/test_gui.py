@@ -100,6 +100,26 @@ def run():
         check(len(watcher.texts) > seen, "%s on an empty selection shows a message" % command)
     check(len(doc.Objects) == before, "empty selections changed nothing")
 
+    # Wrong selections: Fit on a Part object; Tessellate on a Mesh object (no faces).
+    undo_count = doc.UndoCount
+    FreeCADGui.Selection.addSelection(teapot)
+    seen = len(watcher.texts)
+    FreeCADGui.runCommand("Sagitta_Fit")
+    process_events(20)
+    check(len(watcher.texts) > seen, "Fit on a Part object shows a message")
+    plain_mesh = doc.addObject("Mesh::Feature", "PlainMesh")
+    doc.recompute()
+    undo_count, before = doc.UndoCount, len(doc.Objects)
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(plain_mesh)
+    seen = len(watcher.texts)
+    FreeCADGui.runCommand("Sagitta_Tessellate")
+    process_events(20)
+    check(len(watcher.texts) > seen, "Tessellate on a Mesh object shows a message")
+    check(len(doc.Objects) == before and doc.UndoCount == undo_count, "wrong selections changed nothing")
+    doc.removeObject(plain_mesh.Name)
+    FreeCADGui.Selection.clearSelection()
+
     # Tessellate one selected face.
     FreeCADGui.Selection.addSelection(teapot, "Face1")
     FreeCADGui.runCommand("Sagitta_Tessellate")
