@@ -190,6 +190,15 @@ def run():
     panel = SagittaGui.active_panel
     check(len(doc.Objects) == count + 1 and isinstance(panel, SagittaGui.ValidatePanel)
           and panel.report["method"] == "reference", "Validate of FreeCAD's own mesh (MeshPart)")
+
+    # Preferences page: what it saves is what new features start from.
+    page = SagittaGui.PreferencesPage()
+    page.loadSettings()
+    page.scheme.setCurrentIndex(SagittaCore.SCHEMES.index("esc"))
+    page.level.setValue(2)
+    page.saveSettings()
+    prefs = SagittaCore.preferences()
+    check(prefs["scheme"] == "esc" and prefs["level"] == 2, "preferences page saves the defaults")
     watcher.timer.stop()
 
 

@@ -248,6 +248,24 @@ class HeadlessTest(unittest.TestCase):
                          "bspline-brep.json")
         self.assertEqual(obj.Triangles, stats["triangles"])
 
+    def test_open_rib_file(self):
+        """File -> Open of a .rib goes to the Sagitta importer and gives one Bézier face with the
+        file's corner points."""
+        self.assertIn("SagittaImport", str(FreeCAD.getImportType("rib")))
+        points = [(float(i), float(j), float((i * j) % 3)) for j in range(4) for i in range(4)]
+        values = [c for p in points for c in p]
+        path = os.path.join(WORK, "one.rib")
+        with open(path, "w") as f:
+            f.write('Patch "bicubic" "P" [%s]\n' % " ".join(repr(v) for v in values))
+        doc = SagittaImport.open(path)
+        faces = doc.Objects[0].Shape.Faces
+        self.assertEqual(len(faces), 1)
+        self.assertIsInstance(faces[0].Surface, Part.BezierSurface)
+        self.assertEqual((faces[0].Surface.UDegree, faces[0].Surface.VDegree), (3, 3))
+        corners = sorted(tuple(round(c, 12) for c in v.Point) for v in faces[0].Vertexes)
+        self.assertEqual(corners, sorted({points[0], points[3], points[12], points[15]}))
+        FreeCAD.closeDocument(doc.Name)
+
     def test_import_rejects_malformed_file(self):
         bad = os.path.join(WORK, "bad.bpt")
         with open(bad, "w") as f:
