@@ -27,6 +27,7 @@ Command register_run(CLI::App& app);
 Command register_validate(CLI::App& app);
 Command register_scene(CLI::App& app);
 Command register_fit(CLI::App& app);
+Command register_report(CLI::App& app);
 Command register_peer(CLI::App& app);
 
 // Loads a patch model: "" or "default" is the built-in default model; otherwise by extension.

@@ -68,7 +68,7 @@ nlohmann::json fit_result_json(const FitResult& r) {
       if (r.scheme == FitScheme::kEsc) k["threshold"] = p.threshold;
       patches.push_back(k);
     }
-    j["per_patch"] = patches;
+    j["patches"] = patches;
   }
   return j;
 }
@@ -83,6 +83,7 @@ struct FitCliOptions {
   std::string json;
   std::string out;
   int max_refinements = 12;
+  bool per_edge_levels = false;
 };
 
 void run_fit(const FitCliOptions& o) {
@@ -96,6 +97,7 @@ void run_fit(const FitCliOptions& o) {
   FitOptions options;
   options.per_patch = o.per_patch;
   options.max_refinements = o.max_refinements;
+  options.esc_per_edge_levels = o.per_edge_levels;
   ProgressLine progress("sagitta fit");
   options.progress = [&](const FitProgress& p) { progress.update(p.step, p.steps, p.stage + " (certifying)"); };
   const FitResult result = fit_to_error(model, topology, parse_fit_scheme(o.scheme), o.target_error, options);
@@ -103,6 +105,7 @@ void run_fit(const FitCliOptions& o) {
   doc["input"] = o.input.empty() ? "default" : o.input;
   doc["model"] = model.name;
   doc["per_patch"] = o.per_patch;
+  if (result.scheme == FitScheme::kEsc) doc["per_edge_levels"] = o.per_edge_levels;
   if (!o.out.empty()) {
     io::write_mesh(result.mesh, o.out);
     doc["output"] = o.out;
@@ -135,6 +138,8 @@ Command register_fit(CLI::App& app) {
   cmd->add_flag("--per-patch", o->per_patch, "Choose the parameter per patch (uniform levels, esc thresholds); crack-free");
   cmd->add_option("--json", o->json, "Write the fit (parameters, certified error, models, samples) here");
   cmd->add_option("--out", o->out, "Write the fitted mesh here (.obj, .ply, .stl)");
+  cmd->add_flag("--per-edge-levels", o->per_edge_levels,
+                "esc: each refined coarse edge takes the smallest sufficient level (EscParams::per_edge_levels, docs/ESC.md)");
   cmd->add_option("--max-refinements", o->max_refinements, "Tessellate-certify steps after the prediction")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
       sagitta::cli::register_validate(app),
       sagitta::cli::register_scene(app),
       sagitta::cli::register_fit(app),
+      sagitta::cli::register_report(app),
       sagitta::cli::register_peer(app),
   };
   try {

@@ -1,0 +1,500 @@
+// `sagitta report`: certified error against triangles and time for every scheme (see report.hpp).
+#include "report.hpp"
+
+#include "commands.hpp"
+#include "progress.hpp"
+
+#include "sagitta/certify.hpp"
+#include "sagitta/esc.hpp"
+#include "sagitta/fit.hpp"
+#include "sagitta/io/mesh_io.hpp"
+#include "sagitta/occt/cad.hpp"
+#include "sagitta/pn.hpp"
+#include "sagitta/uniform.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#ifndef SAGITTA_REPORT_SCRIPT
+#define SAGITTA_REPORT_SCRIPT ""
+#endif
+
+namespace sagitta::cli {
+
+namespace {
+
+constexpr uint64_t kMaxSweepTriangles = 300'000;  // settings above this are left out of the sweep
+
+// One parameter setting of one scheme, before it is run.
+struct Setting {
+  std::string scheme;  // uniform | esc | pn | occt
+  std::string label;   // "level 3", "L 3, rho 0.003", ...
+  nlohmann::json params;
+  int level = 0;
+  double value = 0.0;  // esc: rho; occt: deflection
+  int base_level = 0;  // pn
+};
+
+std::string format_number(double x, int digits = 3) {
+  std::ostringstream s;
+  s << std::setprecision(digits) << x;
+  return s.str();
+}
+
+std::vector<Setting> sweep_settings(const Model& model, bool occt) {
+  const double diag = model_box(model).diagonal();
+  std::vector<Setting> out;
+  for (int level = 1; level <= 5; ++level) {
+    out.push_back({"uniform", "level " + std::to_string(level), {{"level", level}, {"segments", segments_for_level(level)}}, level});
+  }
+  for (int level : {3, 7}) {
+    for (double f : {0.0, 1e-3, 3e-3, 1e-2}) {
+      if (level == 7 && f == 1e-2) continue;
+      const double rho = f * diag;
+      out.push_back({"esc", "L " + std::to_string(level) + ", rho " + format_number(rho), {{"level", level}, {"threshold", rho}}, level, rho});
+    }
+  }
+  for (int k : {1, 2, 3, 4, 6}) {
+    out.push_back({"pn", "base 2, level " + std::to_string(k), {{"base_level", 2}, {"level", k}}, k, 0.0, 2});
+  }
+  if (occt) {
+    for (double f : {1e-2, 3e-3, 1e-3, 3e-4}) {
+      const double deflection = f * diag;
+      out.push_back({"occt", "deflection " + format_number(deflection), {{"deflection", deflection}, {"angle", 0.5}}, 0, deflection});
+    }
+  }
+  return out;
+}
+
+uint64_t estimated_triangles(const Model& model, const Setting& s) {
+  if (s.scheme == "uniform") return uniform_triangle_count(model, segments_for_level(s.level));
+  if (s.scheme == "esc") return esc_full_triangle_count(model, s.level);
+  if (s.scheme == "pn") return uniform_triangle_count(model, segments_for_level(s.base_level)) * uint64_t(s.level) * s.level;
+  return 0;  // occt: not known beforehand
+}
+
+// Runs one setting: tessellation (timed) and certification.
+nlohmann::json run_setting(const Model& model, const Topology& topology, const Setting& s) {
+  nlohmann::json point;
+  point["scheme"] = s.scheme;
+  point["setting"] = s.label;
+  point["params"] = s.params;
+  DistanceReport distance;
+  uint64_t triangles = 0;
+  double seconds = 0.0;
+  if (s.scheme == "occt") {
+    occt::PeerOptions options;
+    options.deflection = s.value;
+    options.certify = fit_certify_defaults();
+    const occt::PeerResult peer = occt::peer_mesh_model(model, options);
+    triangles = peer.triangles;
+    seconds = peer.mesh_seconds;
+    distance = peer.distance;
+    point["route"] = peer.route;
+  } else {
+    // Tessellation time: the fastest of up to three runs (the first pays for thread start-up).
+    const auto tessellate = [&] {
+      if (s.scheme == "uniform") {
+        UniformParams params;
+        params.segments = segments_for_level(s.level);
+        return tessellate_uniform(model, topology, params);
+      }
+      if (s.scheme == "esc") {
+        EscParams params;
+        params.level = s.level;
+        params.threshold = s.value;
+        return tessellate_esc(model, topology, params);
+      }
+      UniformParams base;
+      base.segments = segments_for_level(s.base_level);
+      PnParams params;
+      params.factor = s.level;
+      return tessellate_pn(tessellate_uniform(model, topology, base), params);
+    };
+    Tessellation mesh;
+    seconds = std::numeric_limits<double>::infinity();
+    for (int run = 0; run < 3 && (run == 0 || mesh.triangles.size() < 100'000); ++run) {
+      const Stopwatch clock;
+      mesh = tessellate();
+      seconds = std::min(seconds, clock.seconds());
+    }
+    triangles = mesh.triangles.size();
+    distance = certify_distance(model, mesh, fit_certify_defaults());
+  }
+  point["triangles"] = triangles;
+  point["seconds"] = seconds;
+  point["certify_seconds"] = distance.seconds;
+  point["certified"] = distance.hausdorff.certified;
+  point["certified_error"] = distance.hausdorff.certified ? nlohmann::json(distance.hausdorff.upper) : nlohmann::json(nullptr);
+  point["lower_bound"] = distance.hausdorff.lower;
+  return point;
+}
+
+// Indices of the points no other point beats: none has <= cost and < error (or < cost and <= error).
+std::vector<size_t> pareto_front(const nlohmann::json& points, const char* cost_key) {
+  std::vector<size_t> front;
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (points[i]["certified_error"].is_null()) continue;
+    const double ci = points[i][cost_key].get<double>(), ei = points[i]["certified_error"].get<double>();
+    bool dominated = false;
+    for (size_t j = 0; j < points.size() && !dominated; ++j) {
+      if (j == i || points[j]["certified_error"].is_null()) continue;
+      const double cj = points[j][cost_key].get<double>(), ej = points[j]["certified_error"].get<double>();
+      dominated = (cj <= ci && ej < ei) || (cj < ci && ej <= ei);
+    }
+    if (!dominated) front.push_back(i);
+  }
+  std::sort(front.begin(), front.end(),
+            [&](size_t a, size_t b) { return points[a][cost_key].get<double>() < points[b][cost_key].get<double>(); });
+  return front;
+}
+
+nlohmann::json fitted_json(const FittedModel& m) {
+  return {{"model", "power_law"},
+          {"formula", "certified_error = C * triangles^p"},
+          {"C", m.parameters[0]},
+          {"p", m.parameters[1]},
+          {"log_residuals", m.residuals},
+          {"cost", m.cost},
+          {"loss", "Huber(0.1) on log(error)"}};
+}
+
+// Per-scheme fits, the triangles each needs at the reference error, and the verdicts.
+void summarise_model(nlohmann::json& entry, double reference_error) {
+  const nlohmann::json& points = entry["points"];
+  const std::vector<size_t> front = pareto_front(points, "triangles");
+  const std::vector<size_t> time_front = pareto_front(points, "seconds");
+  entry["pareto_triangles"] = front;
+  entry["pareto_time"] = time_front;
+  std::map<std::string, std::vector<size_t>> by_scheme;
+  for (size_t i = 0; i < points.size(); ++i) by_scheme[points[i]["scheme"].get<std::string>()].push_back(i);
+  nlohmann::json schemes = nlohmann::json::object();
+  double best_needed = std::numeric_limits<double>::infinity();
+  std::string best_scheme;
+  for (const auto& [scheme, indices] : by_scheme) {
+    nlohmann::json s;
+    std::vector<double> t, e;
+    for (size_t i : indices) {
+      if (points[i]["certified_error"].is_null() || points[i]["certified_error"].get<double>() <= 0.0) continue;
+      t.push_back(points[i]["triangles"].get<double>());
+      e.push_back(points[i]["certified_error"].get<double>());
+    }
+    s["points"] = indices.size();
+    s["on_pareto_front"] = std::count_if(indices.begin(), indices.end(),
+                                         [&](size_t i) { return std::find(front.begin(), front.end(), i) != front.end(); });
+    s["on_time_pareto_front"] = std::count_if(indices.begin(), indices.end(), [&](size_t i) {
+      return std::find(time_front.begin(), time_front.end(), i) != time_front.end();
+    });
+    if (scheme == "pn" && t.size() >= 3) {
+      // PN converges to the PN surface of its base mesh, not to the exact surface: a floor.
+      std::vector<double> x;
+      for (double v : t) x.push_back(1.0 / v);
+      const FittedModel m = fit_floor_plus_power(x, e);
+      s["fit"] = {{"model", "floor_plus_power"}, {"formula", "certified_error = F + C * triangles^-p"}, {"F", m.parameters[0]},
+                  {"C", m.parameters[1]}, {"p", -m.parameters[2]}, {"log_residuals", m.residuals}, {"cost", m.cost},
+                  {"loss", "Huber(0.1) on log(error)"}};
+      const double xs = invert_model(m, reference_error, 1e-12, 1.0);
+      const double needed = m.predict(xs) <= reference_error ? 1.0 / xs : std::numeric_limits<double>::infinity();
+      s["triangles_at_reference_error"] = std::isfinite(needed) ? nlohmann::json(std::round(needed)) : nlohmann::json(nullptr);
+      if (!std::isfinite(needed)) s["note"] = "floor " + format_number(m.parameters[0]) + " above the reference error";
+      if (needed < best_needed) {
+        best_needed = needed;
+        best_scheme = scheme;
+      }
+    } else if (t.size() >= 2 && *std::max_element(t.begin(), t.end()) > *std::min_element(t.begin(), t.end())) {
+      const FittedModel m = fit_power_law(t, e);
+      s["fit"] = fitted_json(m);
+      // Triangles the fitted model needs for the reference error (error decreasing in triangles).
+      const double p = m.parameters[1];
+      const double needed = p < 0.0 ? std::pow(reference_error / m.parameters[0], 1.0 / p) : std::numeric_limits<double>::infinity();
+      s["triangles_at_reference_error"] = std::isfinite(needed) ? nlohmann::json(std::round(needed)) : nlohmann::json(nullptr);
+      if (needed < best_needed) {
+        best_needed = needed;
+        best_scheme = scheme;
+      }
+    }
+    schemes[scheme] = s;
+  }
+  for (auto& [scheme, s] : schemes.items()) {
+    std::ostringstream v;
+    v << s["on_pareto_front"].get<int>() << " of " << s["points"].get<int>() << " settings on the error/triangles front, "
+      << s["on_time_pareto_front"].get<int>() << " on the error/time front";
+    if (s.contains("triangles_at_reference_error") && !s["triangles_at_reference_error"].is_null()) {
+      const double needed = s["triangles_at_reference_error"].get<double>();
+      v << "; the fit needs about " << std::llround(needed) << " triangles for error " << format_number(reference_error);
+      if (scheme == best_scheme) {
+        v << " - the fewest of all schemes";
+        s["rank"] = "best";
+      } else {
+        v << " (" << format_number(needed / best_needed, 2) << "x " << best_scheme << ")";
+        s["rank"] = needed <= 1.25 * best_needed ? "close" : "costly";
+      }
+    } else if (s.contains("note")) {
+      v << "; cannot reach error " << format_number(reference_error) << " at this base level (" << s["note"].get<std::string>() << ")";
+      s["rank"] = "floor";
+    } else {
+      v << "; too few certified settings to fit";
+      s["rank"] = "unknown";
+    }
+    s["verdict"] = v.str();
+  }
+  entry["schemes"] = schemes;
+  entry["reference_error"] = reference_error;
+}
+
+std::string base64(const std::string& bytes) {
+  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const uint32_t n = (uint8_t(bytes[i]) << 16) | (uint8_t(bytes[i + 1]) << 8) | uint8_t(bytes[i + 2]);
+    out += {k[n >> 18], k[(n >> 12) & 63], k[(n >> 6) & 63], k[n & 63]};
+  }
+  if (i + 1 == bytes.size()) {
+    const uint32_t n = uint8_t(bytes[i]) << 16;
+    out += {k[n >> 18], k[(n >> 12) & 63], '=', '='};
+  } else if (i + 2 == bytes.size()) {
+    const uint32_t n = (uint8_t(bytes[i]) << 16) | (uint8_t(bytes[i + 1]) << 8);
+    out += {k[n >> 18], k[(n >> 12) & 63], k[(n >> 6) & 63], '='};
+  }
+  return out;
+}
+
+std::string html_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (c == '<') out += "&lt;";
+    else if (c == '>') out += "&gt;";
+    else if (c == '&') out += "&amp;";
+    else if (c == '"') out += "&quot;";
+    else out += c;
+  }
+  return out;
+}
+
+std::string shell_quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+// plot_report.py: $SAGITTA_REPORT_SCRIPT, then <bin>/../share/sagitta/, then the source tree.
+std::string find_plot_script() {
+  if (const char* env = std::getenv("SAGITTA_REPORT_SCRIPT"); env && *env) return env;
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const auto installed = exe.parent_path().parent_path() / "share" / "sagitta" / "plot_report.py";
+    if (std::filesystem::exists(installed, ec)) return installed.string();
+  }
+  if (std::filesystem::exists(SAGITTA_REPORT_SCRIPT, ec)) return SAGITTA_REPORT_SCRIPT;
+  return "";
+}
+
+// Runs the plot script; returns "" on success or the reason the plots are missing.
+std::string make_plots(const std::string& json_path, const std::string& out_dir) {
+  const std::string script = find_plot_script();
+  if (script.empty()) return "the plotting script plot_report.py was not found";
+  const std::string python = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+  const std::string log = (std::filesystem::path(out_dir) / "plot.log").string();
+  const std::string command = python + " " + shell_quote(script) + " " + shell_quote(json_path) + " " + shell_quote(out_dir) +
+                              " >" + shell_quote(log) + " 2>&1";
+  const int rc = std::system(command.c_str());
+  if (rc != 0) {
+    std::ifstream in(log);
+    std::string line, last;
+    while (std::getline(in, line)) {
+      if (!line.empty()) last = line;
+    }
+    return "plots unavailable (python3 with matplotlib failed: " + (last.empty() ? "exit " + std::to_string(rc) : last) + ")";
+  }
+  std::filesystem::remove(log);
+  return "";
+}
+
+std::string image_tag(const std::filesystem::path& png, const std::string& alt) {
+  std::ifstream in(png, std::ios::binary);
+  if (!in) return "";
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return "<img alt=\"" + html_escape(alt) + "\" src=\"data:image/png;base64," + base64(bytes.str()) + "\">";
+}
+
+std::string number_cell(const nlohmann::json& x, int digits = 4) {
+  return x.is_null() ? "not certified" : format_number(x.get<double>(), digits);
+}
+
+}  // namespace
+
+nlohmann::json build_trade_report(const std::vector<NamedModel>& models, const ReportOptions& options) {
+  nlohmann::json report;
+  report["tool"] = "sagitta report";
+  report["error"] = "certified Hausdorff upper bound between mesh and exact surface (model units)";
+  report["time"] = "tessellation wall time (seconds), certification excluded";
+  int total = 0, done = 0;
+  std::vector<std::vector<Setting>> plans;
+  for (const NamedModel& m : models) {
+    plans.push_back(sweep_settings(m.model, options.occt));
+    total += static_cast<int>(plans.back().size());
+  }
+  for (size_t k = 0; k < models.size(); ++k) {
+    const Model& model = models[k].model;
+    const Topology topology = build_topology(model);
+    nlohmann::json entry;
+    entry["name"] = models[k].name;
+    entry["model"] = model.name;
+    entry["patches"] = model.patches.size();
+    entry["box_diagonal"] = model_box(model).diagonal();
+    nlohmann::json points = nlohmann::json::array();
+    nlohmann::json skipped = nlohmann::json::array();
+    for (const Setting& s : plans[k]) {
+      if (options.progress) options.progress(done, total, models[k].name + ": " + s.scheme + " " + s.label);
+      ++done;
+      if (estimated_triangles(model, s) > kMaxSweepTriangles) {
+        skipped.push_back(s.scheme + " " + s.label);
+        continue;
+      }
+      try {
+        points.push_back(run_setting(model, topology, s));
+      } catch (const InputError& e) {
+        skipped.push_back(s.scheme + " " + s.label + ": " + e.what());
+      }
+    }
+    entry["points"] = points;
+    entry["skipped"] = skipped;
+    summarise_model(entry, options.target_error > 0.0 ? options.target_error : 1e-3 * model_box(model).diagonal());
+    report["models"].push_back(entry);
+  }
+  report["occt_version"] = options.occt ? occt::occt_version() : "";
+  return report;
+}
+
+std::string write_trade_report(const nlohmann::json& report, const std::string& out_dir) {
+  std::filesystem::create_directories(out_dir);
+  const std::filesystem::path dir(out_dir);
+  const std::string json_path = (dir / "report.json").string();
+  write_json(json_path, report);
+  const std::string plot_problem = make_plots(json_path, out_dir);
+  std::ostringstream h;
+  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>Sagitta trade report</title>\n<style>\n"
+       "body{font-family:sans-serif;max-width:1300px;margin:24px auto;color:#222;line-height:1.45}\n"
+       "h1{font-size:26px}h2{font-size:21px;border-bottom:2px solid #ccc;padding-bottom:4px;margin-top:36px}\n"
+       "h3{font-size:17px}table{border-collapse:collapse;font-size:14px;margin:8px 0}\n"
+       "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}th{background:#eee}td.l,th.l{text-align:left}\n"
+       "tr.front td{background:#fff4c2;font-weight:bold}.plots{display:flex;flex-wrap:wrap;gap:12px}\n"
+       ".plots img{width:640px;border:1px solid #ddd}.notice{background:#fde2e2;padding:8px;border:1px solid #e99}\n"
+       ".note{color:#555;font-size:14px}\n</style></head><body>\n"
+       "<h1>Sagitta: speed against accuracy</h1>\n<p class=\"note\">Error = "
+    << html_escape(report["error"].get<std::string>()) << ". Time = " << html_escape(report["time"].get<std::string>())
+    << ". Highlighted rows lie on the Pareto front of error against triangles (no other setting of any scheme has fewer "
+       "or equal triangles and a smaller error). Fits per scheme (Ceres, Huber loss on log error): certified_error = C &middot; "
+       "T<sup>p</sup>, for PN F + C &middot; T<sup>p</sup> (PN converges to the PN surface of its base mesh, not to the exact surface). "
+       "Settings whose surface-to-mesh bound could not be certified show &lsquo;not certified&rsquo; and are left out of fits and fronts.</p>\n";
+  if (!plot_problem.empty()) h << "<p class=\"notice\">" << html_escape(plot_problem) << "</p>\n";
+  for (size_t k = 0; k < report["models"].size(); ++k) {
+    const nlohmann::json& m = report["models"][k];
+    h << "<h2>" << html_escape(m["name"].get<std::string>()) << " &mdash; " << m["patches"].get<size_t>()
+      << " patches, box diagonal " << format_number(m["box_diagonal"].get<double>()) << "</h2>\n";
+    if (plot_problem.empty()) {
+      h << "<div class=\"plots\">"
+        << image_tag(dir / ("model_" + std::to_string(k) + "_triangles.png"), "certified error against triangles")
+        << image_tag(dir / ("model_" + std::to_string(k) + "_time.png"), "certified error against tessellation time") << "</div>\n";
+    }
+    h << "<h3>Verdict per scheme (reference error " << format_number(m["reference_error"].get<double>()) << ")</h3>\n"
+      << "<table><tr><th class=\"l\">scheme</th><th class=\"l\">fitted model (T = triangles)</th><th>largest |log residual|</th>"
+         "<th>triangles for the reference error</th><th class=\"l\">verdict</th></tr>\n";
+    for (const auto& [scheme, s] : m["schemes"].items()) {
+      h << "<tr><td class=\"l\"><b>" << scheme << "</b></td>";
+      if (s.contains("fit")) {
+        double worst = 0.0;
+        for (double r : s["fit"]["log_residuals"]) worst = std::max(worst, std::abs(r));
+        h << "<td class=\"l\">" << (s["fit"].contains("F") ? format_number(s["fit"]["F"].get<double>()) + " + " : "")
+          << format_number(s["fit"]["C"].get<double>()) << " &middot; T<sup>" << format_number(s["fit"]["p"].get<double>())
+          << "</sup></td><td>" << format_number(worst, 2) << "</td><td>"
+          << (s["triangles_at_reference_error"].is_null() ? std::string("unreachable")
+                                                          : format_number(s["triangles_at_reference_error"].get<double>(), 6))
+          << "</td>";
+      } else {
+        h << "<td>-</td><td>-</td><td>-</td>";
+      }
+      h << "<td class=\"l\">" << html_escape(s["verdict"].get<std::string>()) << "</td></tr>\n";
+    }
+    h << "</table>\n<h3>Measurements</h3>\n<table><tr><th class=\"l\">scheme</th><th class=\"l\">setting</th><th>triangles</th>"
+         "<th>tessellation ms</th><th>certified lower</th><th>certified upper</th><th>certify s</th></tr>\n";
+    const auto& front = m["pareto_triangles"];
+    for (size_t i = 0; i < m["points"].size(); ++i) {
+      const nlohmann::json& p = m["points"][i];
+      const bool on_front = std::find(front.begin(), front.end(), nlohmann::json(i)) != front.end();
+      h << "<tr" << (on_front ? " class=\"front\"" : "") << "><td class=\"l\">" << p["scheme"].get<std::string>()
+        << "</td><td class=\"l\">" << html_escape(p["setting"].get<std::string>()) << "</td><td>" << p["triangles"].get<uint64_t>()
+        << "</td><td>" << format_number(1e3 * p["seconds"].get<double>()) << "</td><td>" << number_cell(p["lower_bound"])
+        << "</td><td>" << number_cell(p["certified_error"]) << "</td><td>" << format_number(p["certify_seconds"].get<double>(), 2)
+        << "</td></tr>\n";
+    }
+    h << "</table>\n";
+    if (!m["skipped"].empty()) {
+      h << "<p class=\"note\">Left out (more than " << kMaxSweepTriangles << " triangles, or refused): ";
+      for (size_t i = 0; i < m["skipped"].size(); ++i) h << (i ? "; " : "") << html_escape(m["skipped"][i].get<std::string>());
+      h << "</p>\n";
+    }
+  }
+  h << "</body></html>\n";
+  const std::string html_path = (dir / "report.html").string();
+  io::write_file_atomic(html_path, h.str());
+  return html_path;
+}
+
+namespace {
+
+struct ReportCliOptions {
+  std::vector<std::string> inputs;
+  std::string out_dir;
+  double target_error = -1.0;
+  bool no_occt = false;
+};
+
+void run_report(const ReportCliOptions& o) {
+  for (const std::string& input : o.inputs) check_output_is_not_input(o.out_dir, input);
+  std::vector<NamedModel> models;
+  for (const std::string& input : o.inputs) {
+    models.push_back({input == "default" ? "default" : std::filesystem::path(input).filename().string(), load_model(input)});
+  }
+  if (models.empty()) models.push_back({"default", load_model("")});
+  ReportOptions options;
+  options.occt = !o.no_occt;
+  options.target_error = o.target_error;
+  ProgressLine progress("sagitta report");
+  options.progress = [&](int done, int total, const std::string& what) { progress.update(done, total, what); };
+  const nlohmann::json report = build_trade_report(models, options);
+  const std::string html = write_trade_report(report, o.out_dir);
+  std::cout << "sagitta report: " << models.size() << " model(s) -> " << html << " and "
+            << (std::filesystem::path(o.out_dir) / "report.json").string() << "\n";
+  for (const auto& m : report["models"]) {
+    for (const auto& [scheme, s] : m["schemes"].items()) {
+      std::cout << "  " << m["name"].get<std::string>() << " " << scheme << ": " << s["verdict"].get<std::string>() << "\n";
+    }
+  }
+}
+
+}  // namespace
+
+Command register_report(CLI::App& app) {
+  auto o = std::make_shared<ReportCliOptions>();
+  CLI::App* cmd = app.add_subcommand("report", "Certified error against triangles and time for every scheme: report.json + report.html");
+  cmd->add_option("inputs", o->inputs, "Patch files (.bpt, .rib) or 'default'; none: the built-in model");
+  cmd->add_option("--out", o->out_dir, "Output folder for report.json, report.html and the plots")->required();
+  cmd->add_option("--target-error", o->target_error, "Reference error for the verdicts (default: 1e-3 of each model's box diagonal)");
+  cmd->add_flag("--no-occt", o->no_occt, "Leave out OCCT BRepMesh (the peer)");
+  return {cmd, [o] { run_report(*o); }};
+}
+
+}  // namespace sagitta::cli
