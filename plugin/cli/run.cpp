@@ -1,10 +1,18 @@
-// The main job: tessellate a model (the built-in default when none is given), write the mesh and a
-// statistics file into an output folder, and print a summary.
+// The main job: tessellate a model (the built-in default when none is given) with every scheme,
+// certify each mesh, fit ESC to a target error, and write the trade report into an output folder,
+// printing where each file is.
 #include "commands.hpp"
+#include "fit_json.hpp"
+#include "progress.hpp"
+#include "report.hpp"
 #include "schemes.hpp"
 
+#include "sagitta/certify.hpp"
+#include "sagitta/fit.hpp"
 #include "sagitta/io/mesh_io.hpp"
+#include "sagitta/mesh_check.hpp"
 
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -17,19 +25,13 @@ struct RunOptions {
   std::string input;
   std::string out_dir = "sagitta-out";
   int level = 4;
+  double target_error = -1.0;  // <= 0: 1e-3 of the model's box diagonal
+  bool report = true;
 };
 
-void run_main_job(const RunOptions& o) {
-  const Model model = load_model(o.input);
-  const Topology topology = build_topology(model);
-  std::filesystem::create_directories(o.out_dir);
-  nlohmann::json report;
-  report["input"] = o.input.empty() ? "default" : o.input;
-  report["model"] = model.name;
-  report["patches"] = model.patches.size();
-  report["topology"] = topology_json(model, topology);
-  SchemeOptions scheme;
-  scheme.level = o.level;
+// One scheme's mesh: tessellated, certified, topology-checked and written as OUT_DIR/<name>.ply.
+nlohmann::json run_one_scheme(const Model& model, const Topology& topology, const SchemeOptions& scheme,
+                              const std::string& out_dir, const std::string& name) {
   nlohmann::json stats;
   const Stopwatch clock;
   const Tessellation mesh = run_scheme(model, topology, scheme, stats);
@@ -37,28 +39,103 @@ void run_main_job(const RunOptions& o) {
   stats["vertices"] = mesh.positions.size();
   stats["triangles"] = mesh.triangles.size();
   stats["degenerate_triangles"] = mesh.degenerate_triangles;
-  const std::string mesh_path = (std::filesystem::path(o.out_dir) / "uniform.ply").string();
-  io::write_mesh(mesh, mesh_path);
-  stats["output"] = mesh_path;
-  report["runs"].push_back(stats);
-  const std::string json_path = (std::filesystem::path(o.out_dir) / "report.json").string();
-  write_json(json_path, report);
-  std::cout << "sagitta run: " << model.name << ", " << model.patches.size() << " patches ("
-            << topology.shared_edges() << " shared edges, " << topology.free_edges() << " free, "
-            << topology.collapsed_sides() << " collapsed sides)\n"
-            << "  uniform level " << o.level << ": " << mesh.triangles.size() << " triangles, "
-            << mesh.positions.size() << " vertices, " << stats["seconds"].get<double>() << " s -> " << mesh_path << "\n"
-            << "  report: " << json_path << "\n";
+  const DistanceReport distance = certify_distance(model, mesh);
+  stats["hausdorff"] = interval_json(distance.hausdorff);
+  stats["certify_seconds"] = distance.seconds;
+  const TopologyReport topo = check_mesh_topology(mesh, &model, &topology);
+  stats["crack_edges"] = topo.crack_edges;
+  stats["t_junctions"] = topo.t_junctions;
+  stats["watertight"] = topo.watertight();
+  const std::string path = (std::filesystem::path(out_dir) / (name + ".ply")).string();
+  io::write_mesh(mesh, path);
+  stats["output"] = path;
+  std::cout << "  " << name << ": " << mesh.triangles.size() << " triangles in " << stats["seconds"].get<double>()
+            << " s, certified Hausdorff [" << distance.hausdorff.lower << ", " << distance.hausdorff.upper << "], "
+            << (topo.watertight() ? "no cracks or T-junctions" : "CRACKS or T-junctions") << " -> " << path << "\n"
+            << std::flush;
+  return stats;
+}
+
+void run_main_job(const RunOptions& o) {
+  const Model model = load_model(o.input);
+  const Topology topology = build_topology(model);
+  std::filesystem::create_directories(o.out_dir);
+  const std::filesystem::path dir(o.out_dir);
+  const double diagonal = model_box(model).diagonal();
+  const double target = o.target_error > 0.0 ? o.target_error : 1e-3 * diagonal;
+  nlohmann::json summary;
+  summary["input"] = o.input.empty() ? "default" : o.input;
+  summary["model"] = model.name;
+  summary["patches"] = model.patches.size();
+  summary["topology"] = topology_json(model, topology);
+  std::cout << "sagitta run: " << model.name << ", " << model.patches.size() << " patches (" << topology.shared_edges()
+            << " shared edges, " << topology.free_edges() << " free, " << topology.collapsed_sides() << " collapsed sides)\n"
+            << "[1/3] every scheme, certified:\n"
+            << std::flush;
+
+  SchemeOptions uniform;
+  uniform.level = o.level;
+  summary["runs"].push_back(run_one_scheme(model, topology, uniform, o.out_dir, "uniform"));
+  SchemeOptions esc;
+  esc.scheme = "esc";
+  esc.level = 3;
+  esc.threshold = 1e-3 * diagonal;
+  summary["runs"].push_back(run_one_scheme(model, topology, esc, o.out_dir, "esc"));
+  SchemeOptions pn;
+  pn.scheme = "pn";
+  pn.base_level = 2;
+  pn.level = 3;
+  summary["runs"].push_back(run_one_scheme(model, topology, pn, o.out_dir, "pn"));
+
+  std::cout << "[2/3] fit ESC to certified error <= " << target << ":\n" << std::flush;
+  FitOptions fit_options;
+  {
+    ProgressLine progress("sagitta run: fit");
+    fit_options.progress = [&](const FitProgress& p) { progress.update(p.step, p.steps, p.stage + " (certifying)"); };
+    const FitResult fit = fit_to_error(model, topology, FitScheme::kEsc, target, fit_options);
+    nlohmann::json fit_doc = fit_result_json(fit);
+    const std::string fit_mesh = (dir / "fit.ply").string();
+    io::write_mesh(fit.mesh, fit_mesh);
+    fit_doc["output"] = fit_mesh;
+    const std::string fit_json = (dir / "fit.json").string();
+    write_json(fit_json, fit_doc);
+    summary["fit"] = fit_doc;
+    std::cout << "  level " << fit.level << ", threshold " << fit.threshold << ": " << fit.triangles
+              << " triangles, certified error <= " << fit.certified_error << (fit.met ? " (meets the target)" : " (MISSES the target)")
+              << " -> " << fit_mesh << ", " << fit_json << "\n"
+              << std::flush;
+  }
+
+  if (o.report) {
+    std::cout << "[3/3] trade report (every scheme swept and certified):\n" << std::flush;
+    ReportOptions report_options;
+    report_options.target_error = target;
+    ProgressLine progress("sagitta run: report");
+    report_options.progress = [&](int done, int total, const std::string& what) { progress.update(done, total, what); };
+    const nlohmann::json report = build_trade_report({{o.input.empty() ? "default" : o.input, model}}, report_options);
+    const std::string html = write_trade_report(report, o.out_dir);
+    summary["report"] = html;
+    std::cout << "  -> " << html << ", " << (dir / "report.json").string() << "\n";
+    for (const auto& [scheme, s] : report["models"][0]["schemes"].items()) {
+      std::cout << "     " << scheme << ": " << s["verdict"].get<std::string>() << "\n";
+    }
+  }
+  const std::string summary_path = (dir / "run.json").string();
+  write_json(summary_path, summary);
+  std::cout << "  summary: " << summary_path << "\n";
 }
 
 }  // namespace
 
 Command register_run(CLI::App& app) {
   auto o = std::make_shared<RunOptions>();
-  CLI::App* cmd = app.add_subcommand("run", "The main job: tessellate (and, as they land, validate and report) a model");
+  CLI::App* cmd = app.add_subcommand(
+      "run", "The main job: every scheme tessellated and certified, an ESC fit to a target error, and the trade report");
   cmd->add_option("input", o->input, "Patch file (.bpt, .rib); omit for the built-in default model");
-  cmd->add_option("--out-dir", o->out_dir, "Folder for the mesh and report")->capture_default_str();
-  cmd->add_option("--level", o->level, "Uniform level")->capture_default_str();
+  cmd->add_option("--out-dir", o->out_dir, "Folder for the meshes, fit and report")->capture_default_str();
+  cmd->add_option("--level", o->level, "Uniform level of uniform.ply")->capture_default_str();
+  cmd->add_option("--target-error", o->target_error, "Fit target (default: 1e-3 of the model's box diagonal)");
+  cmd->add_flag("!--no-report", o->report, "Skip the trade report");
   return {cmd, [o] { run_main_job(*o); }};
 }
 

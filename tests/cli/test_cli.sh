@@ -8,6 +8,8 @@ json() { python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval
 
 # Main job on the built-in default model.
 check "run on the default model" "$SAGITTA run --out-dir $tmp/run >$tmp/run.log 2>&1 && test -s $tmp/run/uniform.ply && test -s $tmp/run/report.json"
+check "run writes every scheme, the fit and the report" "test -s $tmp/run/esc.ply && test -s $tmp/run/pn.ply && test -s $tmp/run/fit.ply && grep -q 'data:image/png;base64' $tmp/run/report.html && [ \$(json $tmp/run/fit.json 'd[\"met\"] and d[\"certified_error\"] <= d[\"target_error\"]') = True ]"
+check "fit refuses a bad target" "! $SAGITTA fit --scheme esc --target-error -1 2>$tmp/err && grep -q 'target-error must be a positive' $tmp/err && [ \$(wc -l < $tmp/err) = 1 ]"
 
 if [ -f "$SHARED_DATA/teapot.bpt" ]; then
   check "teapot level 3" "$SAGITTA tessellate $SHARED_DATA/teapot.bpt --scheme uniform --level 3 --out $tmp/t.obj --stats $tmp/t.json >/dev/null"
