@@ -37,65 +37,6 @@ def preferences():
 # Shapes -> patch models
 
 
-def _patch_dict(degree_u, degree_v, poles, weights):
-    """A patch dict for _sagitta.model_from_patches from a FreeCAD pole grid poles[i][j] (i: u)."""
-    points = [(p.x, p.y, p.z) for row in poles for p in row]
-    flat_weights = [w for row in weights for w in row]
-    rational = any(abs(w - 1.0) > 0.0 for w in flat_weights)
-    return {"degree_u": degree_u, "degree_v": degree_v, "points": points,
-            "weights": flat_weights if rational else None}
-
-
-def _is_untrimmed(face, surface):
-    """True when the face covers exactly the rectangle of its surface (one wire, same area)."""
-    if len(face.Wires) != 1:
-        return False
-    reference = Part.Face(surface).Area
-    return abs(face.Area - reference) <= 1e-9 * max(1.0, reference)
-
-
-def _bspline_patches(surface):
-    """The Bézier patches of a non-periodic B-spline surface: every interior knot is raised to full
-    multiplicity (exact knot insertion), then each span's pole block is one patch."""
-    s = surface.copy()
-    if s.isUPeriodic():
-        s.setUNotPeriodic()
-    if s.isVPeriodic():
-        s.setVNotPeriodic()
-    for k in range(2, s.NbUKnots):
-        s.increaseUMultiplicity(k, s.UDegree)
-    for k in range(2, s.NbVKnots):
-        s.increaseVMultiplicity(k, s.VDegree)
-    poles, weights = s.getPoles(), s.getWeights()
-    du, dv = s.UDegree, s.VDegree
-    patches = []
-    for a in range(s.NbUKnots - 1):
-        for b in range(s.NbVKnots - 1):
-            rows = range(a * du, a * du + du + 1)
-            cols = range(b * dv, b * dv + dv + 1)
-            patches.append(_patch_dict(du, dv, [[poles[i][j] for j in cols] for i in rows],
-                                       [[weights[i][j] for j in cols] for i in rows]))
-    return patches
-
-
-def face_patches(face, name):
-    """The Bézier patches of one untrimmed Bézier or B-spline face (its parameter range only).
-    Raises SagittaError naming the face for other surfaces and for trimmed faces."""
-    surface = face.Surface
-    if not isinstance(surface, (Part.BezierSurface, Part.BSplineSurface)):
-        raise SagittaError("%s: a %s face needs the OCCT adapter (not in this build)" % (name, type(surface).__name__))
-    u0, u1, v0, v1 = face.ParameterRange
-    bounds = surface.bounds()
-    surface = surface.copy()
-    if (u0, u1, v0, v1) != tuple(bounds):
-        surface.segment(u0, u1, v0, v1)
-    if not _is_untrimmed(face, surface):
-        raise SagittaError("%s is trimmed; only untrimmed faces can be tessellated" % name)
-    if isinstance(surface, Part.BezierSurface):
-        return [_patch_dict(surface.UDegree, surface.VDegree, surface.getPoles(), surface.getWeights())]
-    return _bspline_patches(surface)
-
-
 def source_faces(links):
     """(label, [(face name, face)]) per linked object: the selected faces, or all faces of the shape."""
     if not links:
@@ -115,29 +56,26 @@ def source_faces(links):
 
 
 def shape_model(links, name="selection"):
-    """The patch model of the linked shapes/faces and one report line per face. Uses the OCCT adapter
-    on the shapes' BREP text when the module has it, else reads Bézier/B-spline poles directly."""
+    """The patch model of the linked shapes/faces and one report line per face, through the OCCT
+    adapter: the faces are copied into a compound whose BREP text `read_brep_string` converts,
+    exactly as `sagitta tessellate file.brep` does. Raises SagittaError when no face converts."""
     groups = source_faces(links)
-    if getattr(_sagitta, "has_occt", False):
-        # Copies: putting the document's own faces into a compound would flag their shared OCCT data.
-        faces = [f.copy() for _, fs in groups for _, f in fs]
+    # Copies: putting the document's own faces into a compound would flag their shared OCCT data.
+    faces = [f.copy() for _, fs in groups for _, f in fs]
+    try:
         cad = _sagitta.read_brep_string(Part.makeCompound(faces).exportBrepToString(), name)
-        notes = ["%s: %s%s" % (f["name"], f["status"], (" (" + f["reason"] + ")") if f["reason"] else "")
-                 for f in cad["faces"]]
-        if cad["model"].patch_count == 0:
-            raise SagittaError("%s: no face could be converted: %s" % (name, "; ".join(notes)))
-        return cad["model"], notes
-    patches, notes = [], []
-    for label, faces in groups:
-        for face_name, face in faces:
-            found = face_patches(face, "%s.%s" % (label, face_name))
-            patches.extend(found)
-            notes.append("%s.%s: %d patch(es)" % (label, face_name, len(found)))
-    return _sagitta.model_from_patches(name, patches), notes
+    except ValueError as error:
+        raise SagittaError(str(error))
+    notes = ["%s: %s%s" % (f["name"], f["status"], (" (" + f["reason"] + ")") if f["reason"] else "")
+             for f in cad["faces"]]
+    if cad["model"].patch_count == 0:
+        raise SagittaError("%s: no face could be converted: %s" % (name, "; ".join(notes)))
+    return cad["model"], notes
 
 
 def model_to_bpt(model):
-    """.bpt text of a model with every coordinate written to full double precision (repr)."""
+    """.bpt text of a model, every coordinate at full double precision (repr): the patches Sagitta
+    sees in a FreeCAD shape, for reproducing a result with the `sagitta` command."""
     lines = [str(model.patch_count)]
     for p in model.patches:
         lines.append("%d %d" % (p["degree_u"], p["degree_v"]))

@@ -13,9 +13,7 @@
 #include "sagitta/io/model_io.hpp"
 #include "sagitta/mesh_check.hpp"
 #include "sagitta/uniform.hpp"
-#ifdef SAGITTA_HAVE_OCCT
 #include "sagitta/occt/cad.hpp"
-#endif
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -225,7 +223,6 @@ py::dict validate(const Model& model, const Tessellation& mesh, int max_depth, i
   return out;
 }
 
-#ifdef SAGITTA_HAVE_OCCT
 // A CAD model as a dict: the patch model, one report per B-rep face and the conversion counts.
 py::dict cad_dict(const occt::CadModel& cad) {
   py::list faces;
@@ -249,7 +246,6 @@ py::dict cad_dict(const occt::CadModel& cad) {
   d["faces_skipped"] = cad.faces_skipped;
   return d;
 }
-#endif
 
 }  // namespace
 
@@ -379,8 +375,6 @@ PYBIND11_MODULE(_sagitta, m) {
       py::arg("model"), py::arg("level") = py::none(), py::arg("segments") = py::none(),
       "Uniform tessellation: positions (N,3), normals (N,3), triangles (M,3), degenerate_triangles, seconds");
 
-#ifdef SAGITTA_HAVE_OCCT
-  m.attr("has_occt") = true;
   m.def(
       "read_brep_string",
       [](const std::string& text, const std::string& name) {
@@ -404,7 +398,4 @@ PYBIND11_MODULE(_sagitta, m) {
         return cad_dict(cad);
       },
       py::arg("path"), "A .step/.iges/.brep file as {model, faces, ...} through the OCCT adapter");
-#else
-  m.attr("has_occt") = false;
-#endif
 }
