@@ -70,16 +70,47 @@ Tessellation patch_submesh(const Tessellation& mesh, uint32_t patch) {
   return out;
 }
 
-// Certified model-space error of one patch's triangles: the largest per-triangle bound (both
-// directions) the validator proves for them against that patch alone.
-double certified_patch_error(const BezierPatch& patch, const Tessellation& mesh, uint32_t p) {
+// Largest bound of |S(phi(b)) - X(b)| over a triangle (phi, X affine: its (u, v) corners and its
+// vertices), from the validator's Bernstein bound on the 4^depth sub-triangles of a uniform split.
+double subdivided_affine_bound(const BezierPatch& patch, const std::array<Vec2, 3>& uv, const std::array<Vec3, 3>& x,
+                               int depth) {
+  if (depth == 0) {
+    const Vec2 q[3] = {uv[0], uv[1], uv[2]};
+    const Vec3 X[3] = {x[0], x[1], x[2]};
+    return affine_error_bound(patch, q, X);
+  }
+  const std::array<Vec2, 3> mq = {0.5 * (uv[0] + uv[1]), 0.5 * (uv[1] + uv[2]), 0.5 * (uv[2] + uv[0])};
+  const std::array<Vec3, 3> mx = {0.5 * (x[0] + x[1]), 0.5 * (x[1] + x[2]), 0.5 * (x[2] + x[0])};
+  double bound = subdivided_affine_bound(patch, {uv[0], mq[0], mq[2]}, {x[0], mx[0], mx[2]}, depth - 1);
+  bound = std::max(bound, subdivided_affine_bound(patch, {mq[0], uv[1], mq[1]}, {mx[0], x[1], mx[1]}, depth - 1));
+  bound = std::max(bound, subdivided_affine_bound(patch, {mq[2], mq[1], uv[2]}, {mx[2], mx[1], x[2]}, depth - 1));
+  return std::max(bound, subdivided_affine_bound(patch, {mq[0], mq[1], mq[2]}, {mx[0], mx[1], mx[2]}, depth - 1));
+}
+
+// Certified model-space error of patch p's triangles in `mesh`: an upper bound of the distance from
+// any point of them to the surface and from any point of the patch to them.
+// Without collapsed sides the triangles' (u, v) tile the patch's square, so the parametric bound
+// |S(phi(b)) - X(b)| over each triangle bounds both directions; it is cheap (the validator's
+// Bernstein bound on 16 sub-triangles per triangle). With a collapsed side the dropped degenerate
+// triangles leave slivers of the square uncovered, and the validator (which reconstructs them)
+// certifies the patch instead.
+double certified_patch_error(const BezierPatch& patch, bool collapsed_side, const Tessellation& mesh, uint32_t p) {
+  if (!collapsed_side) {
+    double error = 0.0;
+    for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+      if (mesh.triangle_patch[t] != p) continue;
+      const Triangle& tri = mesh.triangles[t];
+      const std::array<Vec3, 3> x = {mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
+      error = std::max(error, subdivided_affine_bound(patch, mesh.triangle_uv[t], x, 2));
+    }
+    return error;
+  }
   Model one;
   one.patches.push_back(patch);
   const Tessellation sub = patch_submesh(mesh, p);
   if (sub.triangles.empty()) return 0.0;  // every triangle collapsed: the patch is a point or a curve
   // Only the per-triangle upper bounds are used: the certified lower bounds get a token budget, and
-  // the refinement stops at depth 5 (a looser bound only ever asks for a finer level; depth 8 spends
-  // seconds on coarse levels that are far from any tolerance).
+  // the refinement stops at depth 5 (a looser bound only ever asks for a finer level).
   CertifyOptions options;
   options.lower_candidates = 1;
   options.lower_node_budget = 1000;
@@ -90,95 +121,6 @@ double certified_patch_error(const BezierPatch& patch, const Tessellation& mesh,
   if (!report.coverage_ok) error = std::numeric_limits<double>::infinity();
   return error;
 }
-
-// Per-model tessellation with one parameter per patch, and the error caches of the level choice.
-class Planner {
- public:
-  explicit Planner(const LoadedScene& scene) : scene_(scene) {
-    esc_ = scene.scene.scheme == "esc";
-    finest_ = esc_ ? kEscSteps : scene.scene.max_level;
-    plain_.resize(scene.models.size());
-    for (const Model& m : scene.models) scale_.push_back(model_box(m).diagonal());
-  }
-
-  bool esc() const { return esc_; }
-  int finest() const { return finest_; }
-  double threshold(size_t model, int index) const {
-    return index >= kEscSteps ? 0.0 : scale_[model] * std::ldexp(1.0, -index);
-  }
-
-  // Model-space tessellation of `model` with parameter q[p] for patch p.
-  Tessellation tessellate(size_t model, const std::vector<int>& q) const {
-    const Model& m = scene_.models[model];
-    const Topology& topology = scene_.topologies[model];
-    if (esc_) {
-      EscParams params;
-      params.level = std::min(scene_.scene.max_level, kMaxEscLevel);
-      for (int index : q) params.patch_thresholds.push_back(threshold(model, index));
-      return tessellate_esc(m, topology, params);
-    }
-    UniformParams params;
-    params.patch_levels = q;
-    return tessellate_uniform(m, topology, params);
-  }
-
-  // Certified error of patch p of `model` when every patch uses parameter q (cached).
-  double plain_error(size_t model, uint32_t p, int q) {
-    std::vector<std::vector<double>>& table = plain_[model];
-    if (table.size() <= static_cast<size_t>(q)) table.resize(static_cast<size_t>(q) + 1);
-    std::vector<double>& errors = table[static_cast<size_t>(q)];
-    if (errors.empty()) {
-      const auto start = std::chrono::steady_clock::now();
-      const Model& m = scene_.models[model];
-      const Tessellation mesh = tessellate(model, std::vector<int>(m.patches.size(), q));
-      errors.resize(m.patches.size());
-      tbb::parallel_for(size_t{0}, m.patches.size(), [&](size_t k) {
-        errors[k] = certified_patch_error(m.patches[k], mesh, static_cast<uint32_t>(k));
-      });
-      certify_seconds += seconds_since(start);
-    }
-    return errors[p];
-  }
-
-  // Certified error of patch p in `mesh` (tessellated with parameters q), cached by the patch's own
-  // parameter and the parameters its sides were decided with.
-  double stitched_error(size_t model, uint32_t p, const std::vector<int>& q, const Tessellation& mesh) {
-    const std::array<int, 4> sides = side_parameters(model, p, q);
-    const auto key = std::make_tuple(model, p, q[p], sides);
-    auto it = stitched_.find(key);
-    if (it != stitched_.end()) return it->second;
-    const auto start = std::chrono::steady_clock::now();
-    const double error = certified_patch_error(scene_.models[model].patches[p], mesh, p);
-    certify_seconds += seconds_since(start);
-    stitched_.emplace(key, error);
-    return error;
-  }
-
-  // Per side of patch p: the finest parameter among the patches sharing it (-1: collapsed side).
-  std::array<int, 4> side_parameters(size_t model, uint32_t p, const std::vector<int>& q) const {
-    const Topology& topology = scene_.topologies[model];
-    std::array<int, 4> sides{};
-    for (Side s : kAllSides) {
-      const Topology::SideInfo& info = topology.side(p, s);
-      int finest = -1;
-      if (!info.collapsed) {
-        for (const SideRef& use : topology.edges[static_cast<size_t>(info.edge)].uses) finest = std::max(finest, q[use.patch]);
-      }
-      sides[static_cast<size_t>(s)] = finest;
-    }
-    return sides;
-  }
-
-  double certify_seconds = 0.0;
-
- private:
-  const LoadedScene& scene_;
-  bool esc_ = false;
-  int finest_ = 0;
-  std::vector<double> scale_;
-  std::vector<std::vector<std::vector<double>>> plain_;  // [model][q][patch]
-  std::map<std::tuple<size_t, uint32_t, int, std::array<int, 4>>, double> stitched_;
-};
 
 // World-space control points of a patch under an affine transform.
 std::vector<Vec3> transformed_points(const BezierPatch& patch, const glm::dmat4& m) {
@@ -231,6 +173,100 @@ bool faces_away(const BezierPatch& patch, const std::vector<Vec3>& world, int ou
 }
 
 }  // namespace
+
+// Per-model tessellation with one parameter per patch, and the error caches of the level choice.
+class ScenePlanner::Caches {
+ public:
+  explicit Caches(const LoadedScene& scene) : scene_(scene) {
+    esc_ = scene.scene.scheme == "esc";
+    finest_ = esc_ ? kEscSteps : scene.scene.max_level;
+    plain_.resize(scene.models.size());
+    for (const Model& m : scene.models) scale_.push_back(model_box(m).diagonal());
+  }
+
+  bool esc() const { return esc_; }
+  int finest() const { return finest_; }
+  double threshold(size_t model, int index) const {
+    return index >= kEscSteps ? 0.0 : scale_[model] * std::ldexp(1.0, -index);
+  }
+
+  // Model-space tessellation of `model` with parameter q[p] for patch p.
+  Tessellation tessellate(size_t model, const std::vector<int>& q) const {
+    const Model& m = scene_.models[model];
+    const Topology& topology = scene_.topologies[model];
+    if (esc_) {
+      EscParams params;
+      params.level = std::min(scene_.scene.max_level, kMaxEscLevel);
+      for (int index : q) params.patch_thresholds.push_back(threshold(model, index));
+      return tessellate_esc(m, topology, params);
+    }
+    UniformParams params;
+    params.patch_levels = q;
+    return tessellate_uniform(m, topology, params);
+  }
+
+  // Certified error of patch p of `model` when every patch uses parameter q (cached).
+  double plain_error(size_t model, uint32_t p, int q) {
+    std::vector<std::vector<double>>& table = plain_[model];
+    if (table.size() <= static_cast<size_t>(q)) table.resize(static_cast<size_t>(q) + 1);
+    std::vector<double>& errors = table[static_cast<size_t>(q)];
+    if (errors.empty()) {
+      const auto start = std::chrono::steady_clock::now();
+      const Model& m = scene_.models[model];
+      const Tessellation mesh = tessellate(model, std::vector<int>(m.patches.size(), q));
+      errors.resize(m.patches.size());
+      tbb::parallel_for(size_t{0}, m.patches.size(), [&](size_t k) {
+        errors[k] = certified_patch_error(m.patches[k], collapsed(model, static_cast<uint32_t>(k)), mesh, static_cast<uint32_t>(k));
+      });
+      certify_seconds += seconds_since(start);
+    }
+    return errors[p];
+  }
+
+  // Certified error of patch p in `mesh` (tessellated with parameters q), cached by the patch's own
+  // parameter and the parameters its sides were decided with.
+  double stitched_error(size_t model, uint32_t p, const std::vector<int>& q, const Tessellation& mesh) {
+    const std::array<int, 4> sides = side_parameters(model, p, q);
+    const auto key = std::make_tuple(model, p, q[p], sides);
+    auto it = stitched_.find(key);
+    if (it != stitched_.end()) return it->second;
+    const auto start = std::chrono::steady_clock::now();
+    const double error = certified_patch_error(scene_.models[model].patches[p], collapsed(model, p), mesh, p);
+    certify_seconds += seconds_since(start);
+    stitched_.emplace(key, error);
+    return error;
+  }
+
+  bool collapsed(size_t model, uint32_t p) const {
+    const Topology& topology = scene_.topologies[model];
+    return std::any_of(kAllSides.begin(), kAllSides.end(), [&](Side s) { return topology.side(p, s).collapsed; });
+  }
+
+  // Per side of patch p: the finest parameter among the patches sharing it (-1: collapsed side).
+  std::array<int, 4> side_parameters(size_t model, uint32_t p, const std::vector<int>& q) const {
+    const Topology& topology = scene_.topologies[model];
+    std::array<int, 4> sides{};
+    for (Side s : kAllSides) {
+      const Topology::SideInfo& info = topology.side(p, s);
+      int finest = -1;
+      if (!info.collapsed) {
+        for (const SideRef& use : topology.edges[static_cast<size_t>(info.edge)].uses) finest = std::max(finest, q[use.patch]);
+      }
+      sides[static_cast<size_t>(s)] = finest;
+    }
+    return sides;
+  }
+
+  double certify_seconds = 0.0;
+
+ private:
+  const LoadedScene& scene_;
+  bool esc_ = false;
+  int finest_ = 0;
+  std::vector<double> scale_;
+  std::vector<std::vector<std::vector<double>>> plain_;  // [model][q][patch]
+  std::map<std::tuple<size_t, uint32_t, int, std::array<int, 4>>, double> stitched_;
+};
 
 double View::depth(const Vec3& x) const { return glm::dot(x - eye, forward); }
 
@@ -304,10 +340,20 @@ LoadedScene load_scene(const io::Scene& scene, const std::string& scene_dir, con
   return loaded;
 }
 
+ScenePlanner::ScenePlanner(const LoadedScene& scene) : scene_(scene), caches_(std::make_unique<Caches>(scene)) {}
+ScenePlanner::~ScenePlanner() = default;
+
 SceneResult tessellate_scene(const LoadedScene& loaded, const std::function<void(size_t, size_t)>& progress) {
+  ScenePlanner planner(loaded);
+  return planner.run(loaded.scene.camera, progress);
+}
+
+SceneResult ScenePlanner::run(const io::SceneCamera& camera, const std::function<void(size_t, size_t)>& progress) {
+  const LoadedScene& loaded = scene_;
   const io::Scene& scene = loaded.scene;
-  const View view = make_view(scene.camera);
-  Planner planner(loaded);
+  const View view = make_view(camera);
+  Caches& planner = *caches_;
+  const double certify_before = planner.certify_seconds;
   SceneResult result;
   result.parameter_histogram.assign(static_cast<size_t>(planner.finest()) + 1, 0);
   for (const Model& m : loaded.models) {
@@ -439,8 +485,8 @@ SceneResult tessellate_scene(const LoadedScene& loaded, const std::function<void
     result.choices.push_back(std::move(choices));
     if (progress) progress(inst + 1, scene.instances.size());
   }
-  result.certify_seconds = planner.certify_seconds;
-  result.tessellate_seconds = seconds_since(start_all) - planner.certify_seconds;
+  result.certify_seconds = planner.certify_seconds - certify_before;
+  result.tessellate_seconds = seconds_since(start_all) - result.certify_seconds;
   (void)tessellate_seconds;
   return result;
 }

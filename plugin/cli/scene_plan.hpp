@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -66,6 +67,24 @@ struct SceneResult {
   std::vector<uint64_t> parameter_histogram; // visible patches per parameter value
   std::vector<double> esc_thresholds;        // ESC: threshold per index, per model (model-major)
   double certify_seconds = 0.0, tessellate_seconds = 0.0;
+};
+
+// Chooses per-patch parameters for a camera and tessellates every instance. Keeps the certified
+// per-patch errors it computes (per model patch and parameter, and per stitching configuration),
+// so later cameras over the same scene reuse them. The scene must outlive the planner.
+class ScenePlanner {
+ public:
+  explicit ScenePlanner(const LoadedScene& scene);
+  ~ScenePlanner();
+  ScenePlanner(const ScenePlanner&) = delete;
+  ScenePlanner& operator=(const ScenePlanner&) = delete;
+  // What tessellate_scene guarantees, for `camera` instead of the scene's own.
+  SceneResult run(const io::SceneCamera& camera, const std::function<void(size_t, size_t)>& progress = {});
+
+ private:
+  class Caches;
+  const LoadedScene& scene_;
+  std::unique_ptr<Caches> caches_;
 };
 
 // Chooses per-patch parameters and tessellates every instance; `progress(done, total)` is called

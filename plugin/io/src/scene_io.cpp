@@ -55,7 +55,10 @@ class Reader {
   }
   int integer(const Json& j, int lo, int hi) const {
     if (!j.is_number_integer()) fail("expected an integer, got " + std::string(j.type_name()));
-    if (j.is_number_unsigned() ? j.get<uint64_t>() > static_cast<uint64_t>(hi) : (j.get<int64_t>() < lo || j.get<int64_t>() > hi)) {
+    const bool in_range = j.is_number_unsigned() ? j.get<uint64_t>() >= static_cast<uint64_t>(std::max(lo, 0)) &&
+                                                       j.get<uint64_t>() <= static_cast<uint64_t>(hi)
+                                                 : j.get<int64_t>() >= lo && j.get<int64_t>() <= hi;
+    if (!in_range) {
       fail("must be in " + std::to_string(lo) + ".." + std::to_string(hi));
     }
     return static_cast<int>(j.get<int64_t>());
