@@ -298,5 +298,46 @@ TEST(SceneAcceptance, CertifiedScreenErrorOfEveryVisiblePatchMeetsTheTolerance) 
   EXPECT_EQ(report.t_junctions, 0u);
 }
 
+// Back-face culling on closed fixtures: every patch culled as facing away has, at dense samples,
+// its outward normal pointing away from the eye; patches that are seen are kept.
+TEST(SceneCulling, BackFacingPatchesReallyFaceAway) {
+  const char* text = R"({
+    "models": {"box": "fixture:pillow_box", "torus": "fixture:rational_torus"},
+    "instances": [{"model": "box"}, {"model": "box", "translate": [4, 0, 0], "scale": [1, 2, -1]},
+                  {"model": "torus", "translate": [-6, 0, 0], "rotate": {"axis": [1, 0, 0], "degrees": 60}}],
+    "camera": {"eye": [1, -12, 5], "target": [0, 0, 0], "up": [0, 0, 1], "fov_y_degrees": 60, "width": 800, "height": 600},
+    "tolerance_pixels": 2
+  })";
+  const scene::LoadedScene loaded = scene::load_scene(io::parse_scene(text, "boxes.json"), ".", "");
+  EXPECT_EQ(loaded.facing[0], 1);  // the fixtures are closed with du x dv outwards
+  EXPECT_EQ(loaded.facing[1], 1);
+  const scene::SceneResult result = scene::tessellate_scene(loaded);
+  EXPECT_GT(result.culled_backfacing, 0u);
+  const Vec3 eye = loaded.scene.camera.eye;
+  size_t checked = 0;
+  for (size_t inst = 0; inst < result.choices.size(); ++inst) {
+    const io::SceneInstance& instance = loaded.scene.instances[inst];
+    const glm::dmat3 linear(instance.transform);
+    const double flip = glm::determinant(linear) < 0.0 ? -1.0 : 1.0;  // a mirror turns du x dv inwards
+    for (size_t p = 0; p < result.choices[inst].size(); ++p) {
+      const BezierPatch& patch = loaded.models[instance.model].patches[p];
+      double most_facing = -1e300;  // largest (eye - x) . outward normal over the samples
+      for (int i = 0; i <= 10; ++i) {
+        for (int j = 0; j <= 10; ++j) {
+          const SurfacePointEval e = evaluate_with_derivatives(patch, i / 10.0, j / 10.0);
+          const Vec3 x = Vec3(instance.transform * glm::dvec4(e.position, 1.0));
+          const Vec3 normal = flip * glm::cross(linear * e.du, linear * e.dv);
+          most_facing = std::max(most_facing, glm::dot(eye - x, normal));
+        }
+      }
+      if (result.choices[inst][p].state == scene::PatchState::kBackFacing) {
+        ++checked;
+        EXPECT_LT(most_facing, 0.0) << "instance " << inst << " patch " << p << " is culled but faces the eye";
+      }
+    }
+  }
+  EXPECT_EQ(checked, result.culled_backfacing);
+}
+
 }  // namespace
 }  // namespace sagitta
