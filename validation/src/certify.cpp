@@ -4,6 +4,7 @@
 #include "mesh_distance.hpp"
 #include "sagitta/evaluate.hpp"
 
+#include <CGAL/box_intersection_d.h>
 #include <glm/geometric.hpp>
 #include <tbb/parallel_for.h>
 
@@ -228,8 +229,17 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
 
 // Damped Gauss-Newton projection of x onto the patch, seeded at q, clamped to the domain; a step is
 // accepted only when it brings the point closer (halved otherwise), so the result is never worse
-// than the seed. Any result is acceptable to the callers (they only need some surface point).
-Vec2 project(const BezierPatch& patch, const Vec3& x, Vec2 q) {
+// than the seed (beyond rounding, in the final steps below). Any result is acceptable to the
+// callers (they only need some surface point).
+Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
+  // Iterate on the patch moved so its first control point is the origin: in absolute coordinates
+  // far from the origin (1e8) the evaluation noise (~ulp(|x|)) stalls the descent test well before
+  // the projection, and the bounds built on the result then change with a translation of the model.
+  // Any parameters are sound; this makes them (nearly) translation invariant.
+  const Vec3 origin = patch_in.points[0];
+  BezierPatch patch = patch_in;
+  for (Vec3& p : patch.points) p -= origin;
+  const Vec3 x = x_in - origin;
   SurfacePointEval e = evaluate_with_derivatives(patch, q.x, q.y);
   double best = glm::length(x - e.position);
   for (int it = 0; it < 12; ++it) {
@@ -239,6 +249,19 @@ Vec2 project(const BezierPatch& patch, const Vec3& x, Vec2 q) {
     if (!(det > 1e-300)) break;
     const double ru = glm::dot(e.du, r), rv = glm::dot(e.dv, r);
     Vec2 step((c * ru - b * rv) / det, (a * rv - b * ru) / det);
+    if (glm::length(step) < 1e-6) {
+      // Near the solution the distance changes by O(|step|^2), below its own rounding, so the
+      // descent test stalls at ~sqrt(u) in (u, v) and the result would depend on rounding (a
+      // scaled model gave bounds 1e-9 apart). Here a plain Gauss-Newton step is kept while it
+      // shrinks the gradient (r . du, r . dv), which converges to full precision.
+      const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
+      const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
+      const Vec3 nr = x - ne.position;
+      if (glm::length(Vec2(glm::dot(ne.du, nr), glm::dot(ne.dv, nr))) >= glm::length(Vec2(ru, rv))) break;
+      q = next;
+      e = ne;
+      continue;
+    }
     bool moved = false;
     for (int half = 0; half < 20 && !moved; ++half, step *= 0.5) {
       const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
@@ -260,6 +283,46 @@ Vec3 eval(const BezierPatch& patch, Vec2 q) {
   const auto p = de_casteljau<double>(patch, q.x, q.y);
   return Vec3(p[0], p[1], p[2]);
 }
+
+// Distance from x to an axis-aligned box (0 inside).
+double box_distance(const Box& box, const Vec3& x) {
+  const Vec3 d = glm::max(glm::max(box.lo - x, x - box.hi), Vec3(0.0));
+  return glm::length(d);
+}
+
+// Distance between two axis-aligned boxes (0 when they overlap).
+double box_distance(const Box& a, const Box& b) {
+  const Vec3 d = glm::max(glm::max(a.lo - b.hi, b.lo - a.hi), Vec3(0.0));
+  return glm::length(d);
+}
+
+// Projection of x onto a patch without a seed: the best point of a 5 x 5 parameter grid, then
+// Newton. Like project(), any result is acceptable (callers only need some surface point).
+Vec2 project_unseeded(const BezierPatch& patch, const Vec3& x) {
+  Vec2 best(0.5);
+  double best_d = kInf;
+  for (int i = 0; i <= 4; ++i) {
+    for (int j = 0; j <= 4; ++j) {
+      const Vec2 q(i / 4.0, j / 4.0);
+      const double d = glm::length(x - eval(patch, q));
+      if (d < best_d) {
+        best_d = d;
+        best = q;
+      }
+    }
+  }
+  return project(patch, x, best);
+}
+
+// Other patches that may be closer to a mesh triangle than its own patch: the mesh->surface
+// distance is to the whole model, so a triangle cutting across a fold or a seam may be matched
+// to a neighbouring patch instead. `near` lists them (never the own patch); any list is sound.
+struct OtherPatches {
+  const std::vector<PatchData>* data = nullptr;
+  const std::vector<Box>* boxes = nullptr;
+  const std::vector<uint32_t>* near = nullptr;
+  bool empty() const { return near == nullptr || near->empty(); }
+};
 
 // Closest point of triangle (a, b, c) to p (Ericson, Real-Time Collision Detection 5.1.5); the
 // result is a convex combination of the corners.
@@ -318,9 +381,10 @@ struct Leaf {
 
 // Refines one triangle; `tau` is the level below which a leaf is accepted.
 TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv, const std::array<Vec3, 3>& T,
-                               double tau, int max_depth, Scratch& s, bool s2m_only = false,
+                               double tau, double target_ratio, int max_depth, Scratch& s, bool s2m_only = false,
                                const std::vector<std::array<Vec3, 3>>* s2m_targets = nullptr,
-                               const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest = {}) {
+                               const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest = {},
+                               const OtherPatches& others = {}) {
   TriangleResult res;
   std::vector<Leaf> stack;
   stack.push_back({{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}, 0});
@@ -337,19 +401,39 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
     }
     const double lin = composed_bound(P, q, X, s);
     double m2s = s2m_only ? 0.0 : lin, s2m = lin;
+    double m2s_seen = 0.0, s2m_seen = 0.0;  // distances found at the leaf's corners
     if (lin > tau && !s2m_only) {
       // Mesh->surface: the leaf's corners matched to their projections on the surface.
       Vec2 qp[3];
+      double residual[3];
       for (int i = 0; i < 3; ++i) {
         qp[i] = project(*P.patch, X[i], q[i]);
-        const double r = glm::length(X[i] - eval(*P.patch, qp[i]));
-        if (r > res.m2s_est) {
-          res.m2s_est = r;
+        residual[i] = glm::length(X[i] - eval(*P.patch, qp[i]));
+      }
+      m2s = std::min(lin, composed_bound(P, qp, X, s));
+      if (m2s > tau && !others.empty()) {
+        // The leaf matched to another patch: sound for the distance to the model, and the only
+        // tight match where the triangle leaves its own patch for a neighbour (folds, seams).
+        Box leaf_box{glm::min(glm::min(X[0], X[1]), X[2]), glm::max(glm::max(X[0], X[1]), X[2])};
+        for (uint32_t c : *others.near) {
+          if (box_distance((*others.boxes)[c], leaf_box) >= m2s) continue;  // cannot do better
+          const PatchData& O = (*others.data)[c];
+          Vec2 qo[3];
+          for (int i = 0; i < 3; ++i) {
+            qo[i] = i == 0 ? project_unseeded(*O.patch, X[i]) : project(*O.patch, X[i], qo[i - 1]);
+            residual[i] = std::min(residual[i], glm::length(X[i] - eval(*O.patch, qo[i])));
+          }
+          m2s = std::min(m2s, composed_bound(O, qo, X, s));
+        }
+      }
+      for (int i = 0; i < 3; ++i) {
+        m2s_seen = std::max(m2s_seen, residual[i]);
+        if (residual[i] > res.m2s_est) {
+          res.m2s_est = residual[i];
           res.m2s_point = X[i];
           res.m2s_seed = qp[i];
         }
       }
-      m2s = std::min(lin, composed_bound(P, qp, X, s));
     }
     if (lin > tau) {
       // Surface->mesh: the leaf's surface corners matched to their closest points on the triangle
@@ -375,13 +459,19 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
         s2m = std::min(s2m, composed_bound(P, q, Y, s));
       }
       for (int i = 0; i < 3; ++i) {
+        if (std::isfinite(corner_distance[i])) s2m_seen = std::max(s2m_seen, corner_distance[i]);
         if (!s2m_only && corner_distance[i] > res.s2m_est) {  // a candidate for the lower bound
           res.s2m_est = corner_distance[i];
           res.s2m_uv = q[i];
         }
       }
     }
-    if (std::max(m2s, s2m) > tau && leaf.depth < max_depth) {
+    // A leaf is done when each bound is below the global target or within the target ratio of a
+    // distance actually seen at its corners (then refining cannot tighten the overall interval
+    // by more than that ratio, and a direction whose distance exceeds the other's estimate does
+    // not refine to the depth budget for nothing).
+    const bool done = m2s <= std::max(tau, target_ratio * m2s_seen) && s2m <= std::max(tau, target_ratio * s2m_seen);
+    if (!done && leaf.depth < max_depth) {
       const Vec3 m01 = 0.5 * (leaf.b[0] + leaf.b[1]), m12 = 0.5 * (leaf.b[1] + leaf.b[2]),
                  m20 = 0.5 * (leaf.b[2] + leaf.b[0]);
       const int d = leaf.depth + 1;
@@ -391,7 +481,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
       stack.push_back({{m12, m20, m01}, d});
       continue;
     }
-    if (std::max(m2s, s2m) > tau) res.exhausted = true;
+    if (!done) res.exhausted = true;
     res.m2s = std::max(res.m2s, m2s);
     res.s2m = std::max(res.s2m, s2m);
   }
@@ -770,6 +860,73 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
       }
     }
   });
+  // Patches near each triangle other than its own (control boxes within 1.5 times the triangle's
+  // own-patch estimate: a patch farther away than that cannot be the closer one), found by CGAL's
+  // box intersection. The estimates then become distances to the model, not just the own patch.
+  std::vector<Box> patch_boxes(model.patches.size());
+  for (size_t p = 0; p < model.patches.size(); ++p) patch_boxes[p] = control_box(model.patches[p]);
+  std::vector<std::vector<uint32_t>> near_patches(count);
+  if (model.patches.size() > 1) {
+    using IdBox = CGAL::Box_intersection_d::Box_with_info_d<double, 3, size_t>;
+    const double floor = 1e-12 * model_box(model).diagonal();
+    std::vector<IdBox> tri_boxes, surface_boxes;
+    for (size_t t = 0; t < count; ++t) {
+      if (!(est[t] > floor)) continue;
+      const auto T = corners(t);
+      const double r = 1.5 * est[t];
+      double lo[3], hi[3];
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min({T[0][k], T[1][k], T[2][k]}) - r;
+        hi[k] = std::max({T[0][k], T[1][k], T[2][k]}) + r;
+      }
+      tri_boxes.emplace_back(lo, hi, t);
+    }
+    for (size_t p = 0; p < model.patches.size(); ++p) {
+      double lo[3] = {patch_boxes[p].lo.x, patch_boxes[p].lo.y, patch_boxes[p].lo.z};
+      double hi[3] = {patch_boxes[p].hi.x, patch_boxes[p].hi.y, patch_boxes[p].hi.z};
+      surface_boxes.emplace_back(lo, hi, p);
+    }
+    CGAL::box_intersection_d(tri_boxes.begin(), tri_boxes.end(), surface_boxes.begin(), surface_boxes.end(),
+                             [&](const IdBox& a, const IdBox& b) {
+                               if (b.info() != mesh.triangle_patch[a.info()]) near_patches[a.info()].push_back(static_cast<uint32_t>(b.info()));
+                             });
+    for (auto& list : near_patches) std::sort(list.begin(), list.end());
+    // Only the largest estimates matter (they set the refinement target): visit triangles by
+    // decreasing own-patch estimate and stop once the next cannot exceed the running maximum,
+    // since matching to more patches only lowers an estimate.
+    std::vector<size_t> by_estimate(count);
+    std::iota(by_estimate.begin(), by_estimate.end(), size_t(0));
+    std::sort(by_estimate.begin(), by_estimate.end(), [&](size_t a, size_t b) { return est[a] > est[b]; });
+    double running_max = 0.0;
+    for (size_t t : by_estimate) {
+      if (est[t] <= running_max) break;
+      if (near_patches[t].empty()) {
+        running_max = est[t];
+        continue;
+      }
+      const auto T = corners(t);
+      const auto& uv = mesh.triangle_uv[t];
+      const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
+      double worst = 0.0;
+      for (const Vec3& b : bs) {
+        const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
+        const BezierPatch& own = model.patches[mesh.triangle_patch[t]];
+        const Vec2 q0 = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
+        double e = glm::length(x - eval(own, project(own, x, q0)));
+        for (uint32_t c : near_patches[t]) {
+          if (box_distance(patch_boxes[c], x) >= e) continue;
+          const BezierPatch& other = model.patches[c];
+          e = std::min(e, glm::length(x - eval(other, project_unseeded(other, x))));
+        }
+        if (e >= worst) {
+          worst = e;
+          est_point[t] = x;
+        }
+      }
+      est[t] = worst;
+      running_max = std::max(running_max, worst);
+    }
+  }
   const double estimate = *std::max_element(est.begin(), est.end());
   // Refinement target; the floor (1e-12 of the model's size, near the rounding term) stops exact
   // meshes (planar patches) from refining to the depth budget for nothing.
@@ -787,7 +944,8 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
     Scratch s;
     for (size_t t = range.begin(); t != range.end(); ++t) {
       results[t] =
-          refine_triangle(pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], corners(t), tau, options.max_depth, s, false, nullptr, nearest);
+          refine_triangle(pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], corners(t), tau, options.target_ratio, options.max_depth, s, false, nullptr, nearest,
+                          OtherPatches{&pd, &patch_boxes, &near_patches[t]});
       if (results[t].m2s_est < est[t]) {
         results[t].m2s_est = est[t];
         results[t].m2s_point = est_point[t];
@@ -804,7 +962,7 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
   tbb::parallel_for(size_t(0), holes.size(), [&](size_t i) {
     Scratch s;
     hole_results[i] =
-        refine_triangle(pd[holes[i].patch], holes[i].uv, holes[i].X, tau, options.max_depth, s, true, &holes[i].neighbours, nearest);
+        refine_triangle(pd[holes[i].patch], holes[i].uv, holes[i].X, tau, options.target_ratio, options.max_depth, s, true, &holes[i].neighbours, nearest);
   });
   double m2s = 0.0, s2m = 0.0;
   for (const TriangleResult& r : hole_results) {
