@@ -1,5 +1,8 @@
 """The Python module gives the same results as the C++ library, from the system Python."""
+import json
 import os
+import subprocess
+import tempfile
 import unittest
 
 import numpy as np
@@ -35,6 +38,81 @@ class ModuleTest(unittest.TestCase):
         self.assertIn("cannot open", str(ctx.exception))
         with self.assertRaises(ValueError):
             _sagitta.tessellate_uniform(_sagitta.default_model(), level=2, segments=3)
+
+
+def cli_json(*args):
+    """Runs the sagitta command with its JSON output in a temporary file; returns the document."""
+    with tempfile.TemporaryDirectory() as folder:
+        out = os.path.join(folder, "out.json")
+        subprocess.run([os.environ["SAGITTA_CLI"]] + list(args) + [out], check=True, stdout=subprocess.DEVNULL)
+        with open(out) as f:
+            return json.load(f)
+
+
+class CliAgreementTest(unittest.TestCase):
+    """tessellate / validate / fit give the numbers the CLI gives (the default model: no data needed)."""
+
+    def setUp(self):
+        if not os.environ.get("SAGITTA_CLI"):
+            self.skipTest("SAGITTA_CLI not set")
+        self.model = _sagitta.default_model()
+
+    def test_tessellate_stats(self):
+        for args, kwargs in ((["--level", "2"], {"level": 2}),
+                             (["--scheme", "esc", "--level", "3", "--threshold", "0.01"],
+                              {"scheme": "esc", "level": 3, "threshold": 0.01}),
+                             (["--scheme", "pn", "--base-level", "1", "--level", "3"],
+                              {"scheme": "pn", "base_level": 1, "level": 3})):
+            with self.subTest(args=args):
+                mesh, stats = _sagitta.tessellate(self.model, **kwargs)
+                cli = cli_json("tessellate", "default", *args, "--stats")
+                for key in ("triangles", "vertices", "degenerate_triangles", "patches"):
+                    self.assertEqual(stats[key], cli[key], key)
+                self.assertEqual(mesh.triangle_count, cli["triangles"])
+                self.assertTrue(mesh.has_surface)
+
+    def test_validate_fields(self):
+        mesh, _ = _sagitta.tessellate(self.model, level=2)
+        ours = _sagitta.validate(self.model, mesh, max_depth=6)
+        cli = cli_json("validate", "default", "--level", "2", "--max-depth", "6", "--json")
+        for direction in ("hausdorff", "mesh_to_surface", "surface_to_mesh"):
+            for bound in ("lower", "upper"):
+                self.assertAlmostEqual(ours[direction][bound], cli[direction][bound], delta=1e-12)
+        self.assertEqual(ours["topology"]["crack_edges"], cli["topology"]["crack_edges"])
+        self.assertEqual(ours["topology"]["watertight"], cli["topology"]["watertight"])
+        errors = ours["triangle_error"]
+        self.assertEqual(len(errors), mesh.triangle_count)
+        self.assertAlmostEqual(float(errors.max()), ours["hausdorff"]["upper"], delta=1e-12)
+
+    def test_mesh_without_uv_uses_the_reference_route(self):
+        mesh, _ = _sagitta.tessellate(self.model, level=2)
+        plain = _sagitta.mesh_from_arrays(mesh.positions, mesh.triangles.astype(np.int64))
+        self.assertFalse(plain.has_surface)
+        report = _sagitta.validate(self.model, plain, max_depth=4)
+        self.assertEqual(report["method"], "reference")
+        self.assertEqual(len(report["triangle_error"]), 0)
+
+    def test_fit(self):
+        ours = _sagitta.fit(self.model, "uniform", 0.01)
+        cli = cli_json("fit", "default", "--scheme", "uniform", "--target-error", "0.01", "--json")
+        self.assertTrue(ours["met"])
+        self.assertEqual(ours["segments"], cli["segments"])
+        self.assertLessEqual(ours["certified_error"], 0.01)
+
+    def test_model_from_patches_round_trip_and_errors(self):
+        copy = _sagitta.model_from_patches("copy", self.model.patches)
+        _, a = _sagitta.tessellate(self.model, level=2)
+        _, b = _sagitta.tessellate(copy, level=2)
+        self.assertEqual((a["triangles"], a["vertices"]), (b["triangles"], b["vertices"]))
+        bad = dict(self.model.patches[0])
+        bad["points"] = bad["points"][:-1]
+        with self.assertRaises(ValueError):
+            _sagitta.model_from_patches("bad", [bad])
+        with self.assertRaises(ValueError):
+            _sagitta.mesh_from_arrays(np.zeros((3, 3)), np.array([[0, 1, 5]]))
+        with self.assertRaises(ValueError):
+            _sagitta.fit(self.model, "uniform", -1.0)
+
 
 
 if __name__ == "__main__":
