@@ -14,8 +14,9 @@ namespace sagitta {
 int segments_for_level(int level) {
   if (level < 0 || level > kMaxUniformLevel) {
     throw InputError("--level " + std::to_string(level) + " is outside 0.." + std::to_string(kMaxUniformLevel) +
-                     " (level L gives 2^L segments per side; 2^" + std::to_string(kMaxUniformLevel) +
-                     " already makes 33.5 million triangles per patch)");
+                     " (level L makes 2^L segments per side and 2 * 4^L triangles per patch: level " +
+                     std::to_string(kMaxUniformLevel) + " already makes 33.5 million triangles per patch, about 2 GiB "
+                     "at 64 bytes per triangle, and 256 such patches would exceed the 32-bit vertex ids)");
   }
   return 1 << level;
 }

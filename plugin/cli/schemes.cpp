@@ -7,6 +7,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 
 namespace sagitta::cli {
@@ -39,10 +40,11 @@ void add_scheme_options(CLI::App* command, SchemeOptions& o) {
 
 namespace {
 
-void check_size(uint64_t estimate, const SchemeOptions& o) {
-  if (estimate > o.max_triangles) {
+// The estimate is a double: products of large counts (2 N^2 patches) must not wrap around.
+void check_size(double estimate, const SchemeOptions& o) {
+  if (estimate > static_cast<double>(o.max_triangles)) {
     std::ostringstream s;
-    s << "this would make " << estimate << " triangles (about " << std::ceil(estimate * 64.0 / (1 << 30))
+    s << std::fixed << std::setprecision(0) << "this would make " << estimate << " triangles (about " << std::ceil(estimate * 64.0 / (1 << 30))
       << " GiB), more than --max-triangles " << o.max_triangles << "; lower the level or raise --max-triangles";
     throw InputError(s.str());
   }
@@ -50,13 +52,15 @@ void check_size(uint64_t estimate, const SchemeOptions& o) {
 
 }  // namespace
 
+void check_triangle_estimate(double estimate, const SchemeOptions& options) { check_size(estimate, options); }
+
 Tessellation run_scheme(const Model& model, const Topology& topology, const SchemeOptions& o, nlohmann::json& stats) {
   stats["scheme"] = o.scheme;
   if (o.scheme == "uniform") {
     if ((o.level >= 0) == (o.segments >= 0)) throw InputError("uniform scheme: give exactly one of --level L or --segments N");
     const int n = o.level >= 0 ? segments_for_level(o.level) : o.segments;
     if (n < 1) throw InputError("--segments must be >= 1, got " + std::to_string(n));
-    check_size(uniform_triangle_count(model, n), o);
+    check_size(2.0 * n * n * static_cast<double>(model.patches.size()), o);  // uniform_triangle_count, unwrapped
     if (o.level >= 0) stats["level"] = o.level;
     stats["segments"] = n;
     UniformParams params;

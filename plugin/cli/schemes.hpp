@@ -34,6 +34,9 @@ std::vector<std::string> scheme_names();
 // Adds --scheme, --level, --segments, --threshold and --max-triangles to a subcommand.
 void add_scheme_options(CLI::App* command, SchemeOptions& options);
 
+// Refuses (InputError saying what to do) an estimated output above options.max_triangles.
+void check_triangle_estimate(double estimate, const SchemeOptions& options);
+
 // Runs the chosen scheme; fills `stats` with the scheme's parameters and counts (not timing).
 // Refuses, with a message, a tessellation whose estimated size exceeds max_triangles.
 Tessellation run_scheme(const Model& model, const Topology& topology, const SchemeOptions& options, nlohmann::json& stats);

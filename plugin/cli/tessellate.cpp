@@ -51,7 +51,10 @@ void run_tessellate(const TessellateOptions& o) {
     return;
   }
   nlohmann::json cad;
-  Model model = replicate(load_model(o.input, &cad), o.copies);
+  Model model = load_model(o.input, &cad);
+  // Every patch makes at least 2 triangles: refuse before replicating a model that cannot fit.
+  check_triangle_estimate(2.0 * static_cast<double>(model.patches.size()) * o.copies, o.scheme);
+  model = replicate(model, o.copies);
   const Topology topology = build_topology(model);
   nlohmann::json stats;
   if (!cad.is_null()) stats.update(cad);
