@@ -21,7 +21,7 @@ finish() {
 }
 if [ "$mode" = headless ]; then
   status=0
-  timeout 900 freecadcmd "$script" || status=$?
+  timeout 800 freecadcmd "$script" || status=$?
   finish "$status"
 fi
 # GUI: install the workbench into the user Mod folder of this HOME, as `cmake --install` would.
@@ -31,5 +31,5 @@ cp -r "$SAGITTA_WORKBENCH_DIR"/. "$mod"/
 cp "$SAGITTA_PYTHON_DIR"/_sagitta*.so "$mod"/
 export QTWEBENGINE_DISABLE_SANDBOX=1 QT_QPA_PLATFORM=xcb LIBGL_ALWAYS_SOFTWARE=1
 status=0
-timeout 900 xvfb-run -a -s "-screen 0 1400x900x24" freecad "$script" || status=$?
+timeout 800 xvfb-run -a -s "-screen 0 1400x900x24" freecad "$script" || status=$?
 finish "$status"

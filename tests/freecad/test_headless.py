@@ -170,6 +170,24 @@ class HeadlessTest(unittest.TestCase):
         # FreeCAD meshes keep float coordinates.
         self.assertAlmostEqual(follower.Mesh.BoundBox.ZMin, moved.Shape.BoundBox.ZMin, delta=1e-5)
 
+    def test_saved_document_reopens_and_recomputes(self):
+        doc = FreeCAD.newDocument("Saved")
+        face = doc.addObject("Part::Feature", "Face")
+        face.Shape = bezier_face()
+        obj = SagittaCore.make_tessellation(doc, [(face, [])], scheme="esc", level=3, threshold=0.01)
+        triangles, name = obj.Triangles, obj.Name
+        path = os.path.join(WORK, "saved.FCStd")
+        doc.saveAs(path)
+        FreeCAD.closeDocument(doc.Name)
+        doc = FreeCAD.openDocument(path)
+        obj = doc.getObject(name)
+        self.assertTrue(SagittaCore.is_tessellation(obj))
+        self.assertEqual((obj.Scheme, obj.Level, obj.Triangles), ("esc", 3, triangles))
+        obj.touch()
+        doc.recompute()
+        self.assertEqual(obj.Mesh.CountFacets, triangles)
+        FreeCAD.closeDocument(doc.Name)
+
     def test_undo_restores_document(self):
         names = sorted(o.Name for o in self.doc.Objects)
         obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, ["Face1"])])
