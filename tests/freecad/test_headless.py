@@ -135,6 +135,22 @@ class HeadlessTest(unittest.TestCase):
                     self.assertEqual(len(obj.FaceColors), obj.Mesh.CountFacets)
             self.assertEqual(source.Shape.exportBrepToString(), brep_before, "the source shape was modified")
 
+    def test_freecad_mesh_validated_like_cli_mesh_input(self):
+        """FreeCAD's own mesh (MeshPart) of the B-spline face, validated against the exact face,
+        gives the interval `sagitta validate --mesh` gives for the same triangles."""
+        import _sagitta
+        path, _ = self.model_file(self.bspline)
+        mesh_obj = SagittaCore.freecad_mesh_of(self.doc, [(self.bspline, [])], linear_deflection=0.05)
+        report = SagittaCore.validate_mesh_object(mesh_obj, [(self.bspline, [])], max_depth=6)
+        self.assertEqual(report["method"], "reference")
+        points, facets = mesh_obj.Mesh.Topology
+        ply = os.path.join(WORK, "freecad-mesh.ply")
+        _sagitta.write_mesh(_sagitta.mesh_from_arrays([tuple(p) for p in points], facets), ply)
+        cli = cli_json(["validate", path, "--mesh", ply, "--max-depth", "6", "--json"], "freecad-mesh.json")
+        self.assertEqual(report["triangles"], cli["triangles"])
+        for key in ("hausdorff", "mesh_to_surface", "surface_to_mesh"):
+            self.assert_interval(report[key], cli[key])
+
     def test_fit_matches_cli_and_meets_target(self):
         path, _ = self.model_file(self.bezier)
         target = 2e-3
