@@ -17,7 +17,9 @@ std::vector<std::string> scheme_names() { return {"uniform", "pn", "esc"}; }
 void add_scheme_options(CLI::App* command, SchemeOptions& o) {
   command->add_option("--scheme", o.scheme, "Tessellation scheme")->check(CLI::IsMember(scheme_names()))->capture_default_str();
   command->add_option("--level", o.level,
-                      "uniform: 2^L segments per patch side (levels nest), 0.." + std::to_string(kMaxUniformLevel));
+                      "uniform: 2^L segments per patch side (levels nest), 0.." + std::to_string(kMaxUniformLevel) +
+                          "; esc: pattern level L, L + 1 segments per coarse edge (the paper uses 3), 0.." +
+                          std::to_string(kMaxEscLevel) + "; pn: K segments per edge (or the fractional_odd factor)");
   command->add_option("--segments", o.segments, "uniform: N >= 1 segments per patch side (the seed's level l is N = 2^(l+1) - 1)");
   command->add_option("--pattern", o.pattern, "pn: integer (k segments per edge, k^2 triangles) or fractional_odd (Direct3D 11)")
       ->check(CLI::IsMember({"integer", "fractional_odd"}))
