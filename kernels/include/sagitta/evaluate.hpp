@@ -44,6 +44,8 @@ class PatchEvaluator {
   int degree_u() const { return n_; }
   int degree_v() const { return m_; }
   bool uses_power_basis() const { return power_; }
+  // The patch-local origin that contract_u's rows are relative to (finish adds it back).
+  const Vec3& origin() const { return origin_; }
 
   // Basis row for parameter t along an axis of degree `degree` (value and derivative), in the
   // layout this evaluator expects. Callers tabulating a grid compute rows once per parameter.

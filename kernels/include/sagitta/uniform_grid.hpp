@@ -1,0 +1,36 @@
+// Positions-only uniform tessellation into a caller's buffer (issue 10): the throughput path.
+//
+// Every patch is sampled on its own regular (N+1) x (N+1) grid and written as interleaved x, y, z
+// (float32 or double), patch after patch; there are no normals, no surface data, no shared
+// vertices and no allocation per vertex. The triangles are implicit: every patch uses the same
+// index pattern (uniform_grid_pattern) offset by patch * (N+1)^2, as a GPU would instance it.
+// Vertices on a side shared by two patches are computed by each patch from its own control net,
+// so they agree to rounding, not bit for bit (tessellate_uniform is the crack-free path).
+#pragma once
+
+#include "sagitta/model.hpp"
+#include "sagitta/tessellation.hpp"
+
+#include <cstdint>
+#include <vector>
+
+namespace sagitta {
+
+// Vertices per patch ((N+1)^2) and in all (patches * (N+1)^2). Throws InputError for segments < 1.
+uint64_t uniform_grid_patch_vertices(int segments);
+uint64_t uniform_grid_vertices(const Model& model, int segments);
+
+// The 2 N^2 triangles of one patch's grid, indices into that patch's (N+1)^2 vertices (row a, column
+// b at a * (N+1) + b), oriented like the (u, v) square, in the order tessellate_uniform emits them
+// for a patch without refined sides.
+std::vector<Triangle> uniform_grid_pattern(int segments);
+
+// Guarantees: xyz[3 * (p * (N+1)^2 + a * (N+1) + b) + k] is coordinate k of patch p at
+// (u, v) = (a / N, b / N), equal to PatchEvaluator(patch).position(u, v) (same operations, so
+// identical in double; rounded once to float for the float overload). xyz must hold
+// 3 * uniform_grid_vertices(model, segments) values. Patches run in parallel (TBB); the output does
+// not depend on the thread count. Throws InputError for segments < 1.
+void tessellate_uniform_grid(const Model& model, int segments, float* xyz);
+void tessellate_uniform_grid(const Model& model, int segments, double* xyz);
+
+}  // namespace sagitta
