@@ -29,6 +29,7 @@ Command register_scene(CLI::App& app);
 Command register_fit(CLI::App& app);
 Command register_report(CLI::App& app);
 Command register_peer(CLI::App& app);
+Command register_bench(CLI::App& app);
 
 // Loads a patch model: "" or "default" is the built-in default model; otherwise by extension.
 // CAD files (.step, .iges, .brep) give the Bézier patches of their untrimmed faces, and fill

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
       sagitta::cli::register_fit(app),
       sagitta::cli::register_report(app),
       sagitta::cli::register_peer(app),
+      sagitta::cli::register_bench(app),
   };
   try {
     app.parse(argc, argv);
