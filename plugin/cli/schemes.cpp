@@ -32,6 +32,9 @@ void add_scheme_options(CLI::App* command, SchemeOptions& o) {
   command->add_option("--normals", o.normals, "pn on a mesh: file (the file's, else computed), smooth (angle-weighted), face (split per face)")
       ->check(CLI::IsMember({"file", "smooth", "face"}))
       ->capture_default_str();
+  command->add_flag("--per-edge-levels", o.per_edge_levels,
+                    "esc: a refined coarse edge takes the smallest level whose vertices keep it within the threshold "
+                    "(instead of the paper's per-candidate test; docs/ESC.md)");
   command->add_option("--threshold", o.threshold,
                       "esc: distance threshold rho >= 0 (model units); 0 inserts every candidate (the non-adaptive pattern)")
       ->capture_default_str();
@@ -85,12 +88,14 @@ Tessellation run_scheme(const Model& model, const Topology& topology, const Sche
     EscParams params;
     params.level = o.level;
     params.threshold = o.threshold;
+    params.per_edge_levels = o.per_edge_levels;
     params.surface_data = o.surface_data;
     if (o.level <= kMaxEscLevel) check_size(esc_full_triangle_count(model, o.level), o);
     EscStats s;
     Tessellation out = tessellate_esc(model, topology, params, &s);
     stats["level"] = o.level;
     stats["threshold"] = o.threshold;
+    stats["per_edge_levels"] = o.per_edge_levels;
     stats["candidates"] = s.candidates;
     stats["inserted_vertices"] = s.inserted_vertices;
     stats["strips"] = s.strips;

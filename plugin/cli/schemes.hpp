@@ -18,6 +18,7 @@ struct SchemeOptions {
   int level = -1;       // uniform: 2^L segments; esc: pattern level; pn: segments per edge
   int segments = -1;    // uniform: N segments per side
   double threshold = 0.0;  // esc: distance threshold rho
+  bool per_edge_levels = false;  // esc: EscParams::per_edge_levels (smallest sufficient level per refined edge)
   uint64_t max_triangles = 200'000'000;
   bool surface_data = true;  // keep (patch, u, v) so the result can be validated
   // pn
