@@ -16,52 +16,66 @@ void check_segments(int segments) {
   if (segments < 1) throw InputError("--segments must be >= 1, got " + std::to_string(segments));
 }
 
-// v-basis values of every grid column for one (degree, basis kind), stored basis-major:
-// values[j * (N+1) + b] = basis j at v = b / N. The table depends only on the degree and on whether
-// the evaluator uses the power basis, so all patches of that kind share it.
-struct ColumnTable {
-  bool ready = false;
-  std::vector<double> values;
-};
+}  // namespace
+
+UniformGridPlan::UniformGridPlan(const Model& model, int segments) : segments_(segments) {
+  check_segments(segments);
+  const size_t cols = static_cast<size_t>(segments) + 1;
+  // v-basis values of every grid column for one (basis kind, degree), stored basis-major:
+  // values[j * (N+1) + b] = basis j at v = b / N. They depend only on the degree and on whether the
+  // evaluator uses the power basis, so all patches of that kind share one table.
+  std::array<std::array<int, kMaxDegree + 1>, 2> table_of;
+  for (auto& t : table_of) t.fill(-1);
+  evals_.reserve(model.patches.size());
+  for (const BezierPatch& patch : model.patches) {
+    evals_.emplace_back(patch);
+    const PatchEvaluator& eval = evals_.back();
+    const int m = patch.degree_v;
+    int& index = table_of[eval.uses_power_basis() ? 1 : 0][static_cast<size_t>(m)];
+    if (index < 0) {
+      std::vector<double> values(static_cast<size_t>(m + 1) * cols);
+      double b[kMaxDegree + 1], db[kMaxDegree + 1];
+      for (int c = 0; c <= segments; ++c) {
+        eval.basis_row(m, static_cast<double>(c) / segments, b, db);
+        for (int j = 0; j <= m; ++j) values[static_cast<size_t>(j) * cols + static_cast<size_t>(c)] = b[j];
+      }
+      index = static_cast<int>(table_store_.size());
+      table_store_.push_back(std::move(values));
+    }
+    // A polynomial patch in the power basis has homogeneous weight exactly 1 at every point
+    // (weight coefficients 1, 0, ..., 0 and basis value 1 for the constant term), so the division
+    // that PatchEvaluator::finish performs is the identity there and is skipped.
+    unit_weight_.push_back(!patch.rational() && eval.uses_power_basis() ? 1 : 0);
+  }
+  // Pointers last: table_store_ no longer grows.
+  table_store_.shrink_to_fit();
+  size_t p = 0;
+  tables_.resize(model.patches.size());
+  for (const BezierPatch& patch : model.patches) {
+    tables_[p] = table_store_[static_cast<size_t>(
+                                  table_of[evals_[p].uses_power_basis() ? 1 : 0][static_cast<size_t>(patch.degree_v)])]
+                     .data();
+    ++p;
+  }
+}
+
+uint64_t UniformGridPlan::vertices() const { return uniform_grid_patch_vertices(segments_) * evals_.size(); }
 
 template <class Out>
-void grid_impl(const Model& model, int segments, Out* xyz) {
-  check_segments(segments);
-  const int n = segments;
+void UniformGridPlan::run_impl(Out* xyz) const {
+  const int n = segments_;
   const size_t cols = static_cast<size_t>(n) + 1;
   const size_t per_patch = cols * cols;
-  const size_t np = model.patches.size();
-
-  // [power basis?][degree v]
-  std::array<std::array<ColumnTable, kMaxDegree + 1>, 2> tables;
-  for (const BezierPatch& patch : model.patches) {
-    const PatchEvaluator eval(patch);
-    ColumnTable& t = tables[eval.uses_power_basis() ? 1 : 0][static_cast<size_t>(patch.degree_v)];
-    if (t.ready) continue;
-    const int m = patch.degree_v;
-    t.values.resize(static_cast<size_t>(m + 1) * cols);
-    double b[kMaxDegree + 1], db[kMaxDegree + 1];
-    for (int c = 0; c <= n; ++c) {
-      eval.basis_row(m, static_cast<double>(c) / n, b, db);
-      for (int j = 0; j <= m; ++j) t.values[static_cast<size_t>(j) * cols + static_cast<size_t>(c)] = b[j];
-    }
-    t.ready = true;
-  }
-
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, np), [&](const tbb::blocked_range<size_t>& range) {
-    // One row of homogeneous sums, structure of arrays so the column loop vectorises.
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, evals_.size()), [&](const tbb::blocked_range<size_t>& range) {
+    // One row of homogeneous sums, structure of arrays so the column loops vectorise.
     std::vector<double> hx(cols), hy(cols), hz(cols), hw(cols);
     double a_row[kMaxDegree + 1], da_row[kMaxDegree + 1];
     std::array<double, 4> row[kMaxDegree + 1], drow[kMaxDegree + 1];
     for (size_t p = range.begin(); p != range.end(); ++p) {
-      const BezierPatch& patch = model.patches[p];
-      const PatchEvaluator eval(patch);
-      const int m = patch.degree_v;
-      const double* table = tables[eval.uses_power_basis() ? 1 : 0][static_cast<size_t>(m)].values.data();
-      // A polynomial patch in the power basis has homogeneous weight exactly 1 at every point
-      // (weight coefficients 1, 0, ..., 0 and basis value 1 for the constant term), so the
-      // division that finish() performs is the identity there and is skipped.
-      const bool unit_weight = !patch.rational() && eval.uses_power_basis();
+      const PatchEvaluator& eval = evals_[p];
+      const int m = eval.degree_v();
+      const double* table = tables_[p];
+      const bool unit_weight = unit_weight_[p] != 0;
       const Vec3 o = eval.origin();
       Out* out = xyz + 3 * p * per_patch;
       double* x = hx.data();
@@ -69,7 +83,7 @@ void grid_impl(const Model& model, int segments, Out* xyz) {
       double* z = hz.data();
       double* w = hw.data();
       for (int a = 0; a <= n; ++a) {
-        eval.basis_row(patch.degree_u, static_cast<double>(a) / n, a_row, da_row);
+        eval.basis_row(eval.degree_u(), static_cast<double>(a) / n, a_row, da_row);
         eval.contract_u(a_row, da_row, row, drow);
         for (size_t c = 0; c < cols; ++c) x[c] = y[c] = z[c] = w[c] = 0.0;
         for (int j = 0; j <= m; ++j) {
@@ -103,7 +117,8 @@ void grid_impl(const Model& model, int segments, Out* xyz) {
   });
 }
 
-}  // namespace
+void UniformGridPlan::run(float* xyz) const { run_impl(xyz); }
+void UniformGridPlan::run(double* xyz) const { run_impl(xyz); }
 
 uint64_t uniform_grid_patch_vertices(int segments) {
   check_segments(segments);
@@ -130,7 +145,7 @@ std::vector<Triangle> uniform_grid_pattern(int segments) {
   return t;
 }
 
-void tessellate_uniform_grid(const Model& model, int segments, float* xyz) { grid_impl(model, segments, xyz); }
-void tessellate_uniform_grid(const Model& model, int segments, double* xyz) { grid_impl(model, segments, xyz); }
+void tessellate_uniform_grid(const Model& model, int segments, float* xyz) { UniformGridPlan(model, segments).run(xyz); }
+void tessellate_uniform_grid(const Model& model, int segments, double* xyz) { UniformGridPlan(model, segments).run(xyz); }
 
 }  // namespace sagitta

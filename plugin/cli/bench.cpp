@@ -322,13 +322,17 @@ void run_bench(const BenchOptions& o) {
       const double se = timed_with_threads(threads, repeats * 4, [&] { t = tessellate_esc(scene, topo, e3); });
       const double et = static_cast<double>(t.triangles.size());
       const double sg = timed_with_threads(threads, repeats * 4, [&] { tessellate_uniform_grid(scene, 8, buf.data()); });
+      const UniformGridPlan plan(scene, 8);
+      const double sgp = timed_with_threads(threads, repeats * 4, [&] { plan.run(buf.data()); });
       sc[k == 0 ? "single_thread" : "all_threads"] = {
           {"threads", threads},
           {"uniform", {{"seconds", su}, {"triangles", ut}, {"per_s", 1.0 / su}}},
           {"esc", {{"seconds", se}, {"triangles", et}, {"per_s", 1.0 / se}}},
-          {"uniform_grid_float32", {{"seconds", sg}, {"triangles", 2.0 * 64 * scene.patches.size()}, {"per_s", 1.0 / sg}}}};
-      std::printf("  %2d thr  uniform %7.1f/s  esc %7.1f/s  grid float32 %7.1f/s\n", threads, 1.0 / su, 1.0 / se,
-                  1.0 / sg);
+          {"uniform_grid_float32", {{"seconds", sg}, {"triangles", 2.0 * 64 * scene.patches.size()}, {"per_s", 1.0 / sg}}},
+          {"uniform_grid_float32_prepared",
+           {{"seconds", sgp}, {"triangles", 2.0 * 64 * scene.patches.size()}, {"per_s", 1.0 / sgp}}}};
+      std::printf("  %2d thr  uniform %7.1f/s  esc %7.1f/s  grid float32 %7.1f/s  prepared grid float32 %7.1f/s\n",
+                  threads, 1.0 / su, 1.0 / se, 1.0 / sg, 1.0 / sgp);
     }
   }
 

@@ -87,6 +87,20 @@ TEST(UniformGrid, OutputDoesNotDependOnThreadCount) {
   EXPECT_EQ(one, many);
 }
 
+TEST(UniformGrid, PlanRepeatsTheSameOutput) {
+  for (const Model& model : grid_models()) {
+    const UniformGridPlan plan(model, 5);
+    ASSERT_EQ(plan.vertices(), uniform_grid_vertices(model, 5));
+    std::vector<double> direct(3 * plan.vertices()), first(direct.size(), 0.0), second(direct.size(), 1.0);
+    tessellate_uniform_grid(model, 5, direct.data());
+    plan.run(first.data());
+    plan.run(second.data());
+    EXPECT_EQ(first, direct) << model.name;
+    EXPECT_EQ(second, direct) << model.name;
+  }
+  EXPECT_THROW(UniformGridPlan(fixtures::default_model(), 0), InputError);
+}
+
 TEST(UniformGrid, RejectsBadSegments) {
   const Model model = fixtures::default_model();
   std::vector<float> xyz(3);

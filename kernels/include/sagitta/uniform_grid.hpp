@@ -8,6 +8,7 @@
 // so they agree to rounding, not bit for bit (tessellate_uniform is the crack-free path).
 #pragma once
 
+#include "sagitta/evaluate.hpp"
 #include "sagitta/model.hpp"
 #include "sagitta/tessellation.hpp"
 
@@ -32,5 +33,28 @@ std::vector<Triangle> uniform_grid_pattern(int segments);
 // not depend on the thread count. Throws InputError for segments < 1.
 void tessellate_uniform_grid(const Model& model, int segments, float* xyz);
 void tessellate_uniform_grid(const Model& model, int segments, double* xyz);
+
+// The per-patch precomputation of tessellate_uniform_grid (each patch's matrix form and the
+// v-basis tables for `segments`), kept for repeated tessellation of one model, as a renderer does
+// every frame. run() writes exactly what tessellate_uniform_grid writes. Throws InputError for
+// segments < 1.
+class UniformGridPlan {
+ public:
+  UniformGridPlan(const Model& model, int segments);
+  int segments() const { return segments_; }
+  uint64_t vertices() const;  // 3 * vertices() values are written
+  void run(float* xyz) const;
+  void run(double* xyz) const;
+
+ private:
+  template <class Out>
+  void run_impl(Out* xyz) const;
+
+  int segments_;
+  std::vector<PatchEvaluator> evals_;
+  std::vector<char> unit_weight_;  // per patch: polynomial in the power basis (no division needed)
+  std::vector<const double*> tables_;  // per patch: its v-basis table
+  std::vector<std::vector<double>> table_store_;
+};
 
 }  // namespace sagitta
