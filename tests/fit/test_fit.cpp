@@ -70,6 +70,23 @@ TEST(FitToError, RefusesBadArguments) {
   EXPECT_THROW(parse_fit_scheme("bogus"), InputError);
 }
 
+TEST(FitToError, UnreachableTargetEndsUnmetWithinTheTriangleLimit) {
+  const Model model = fixtures::default_model();
+  const Topology topology = build_topology(model);
+  FitOptions options;
+  options.max_triangles = 20000;
+  for (FitScheme scheme : {FitScheme::kUniform, FitScheme::kEsc}) {
+    const FitResult r = fit_to_error(model, topology, scheme, 1e-9, options);
+    EXPECT_FALSE(r.met) << fit_scheme_name(r.scheme);
+    EXPECT_GT(r.certified_error, 1e-9);
+    for (const FitSample& s : r.samples) EXPECT_LE(s.triangles, options.max_triangles);
+  }
+  options.per_patch = true;
+  const FitResult r = fit_to_error(model, topology, FitScheme::kUniform, 1e-9, options);
+  EXPECT_FALSE(r.met);
+  for (const FitSample& s : r.samples) EXPECT_LE(s.triangles, options.max_triangles);
+}
+
 // The returned mesh, certified again with the validator's default (more thorough) options, must meet
 // the target; its triangle count must match the result.
 void expect_certified(const Model& model, const FitResult& r) {

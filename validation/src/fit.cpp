@@ -194,10 +194,11 @@ int next_segments(int n_fail, double e_fail, int n_pass, double e_pass, double p
   if (n_fail > 0 && n_pass > 0 && e_fail > e_pass) p = std::log(e_fail / e_pass) / std::log(double(n_pass) / n_fail);
   const int from = n_fail > 0 ? n_fail : n_pass;
   const double e_from = n_fail > 0 ? e_fail : e_pass;
-  return static_cast<int>(std::ceil(from * std::pow(e_from / target, 1.0 / std::max(p, 0.5)) - 1e-9));
+  const double n = std::ceil(from * std::pow(e_from / target, 1.0 / std::max(p, 0.5)) - 1e-9);
+  return static_cast<int>(std::min(n, double(kMaxUniformSegments) + 1.0));  // no int overflow
 }
 
-void fit_uniform(Runner& run, FitResult& result, const FitOptions& options) {
+void fit_uniform(Runner& run, FitResult& result, const Model& model, const FitOptions& options) {
   const double target = result.target_error;
   std::vector<double> h, e;
   for (int n : {8, 12, 16}) {
@@ -222,12 +223,13 @@ void fit_uniform(Runner& run, FitResult& result, const FitOptions& options) {
     }
   }
   const double predicted_h = invert_model(law, target, 1.0 / kMaxUniformSegments, 1.0);
-  int n = std::clamp(static_cast<int>(std::ceil(1.0 / predicted_h - 1e-9)), n_fail + 1, kMaxUniformSegments);
+  int n = std::clamp(static_cast<int>(std::ceil(1.0 / predicted_h - 1e-9)), std::min(n_fail + 1, kMaxUniformSegments), kMaxUniformSegments);
   if (n_pass > 0) n = std::min(n, n_pass);
   Tessellation best_mesh;
   FitSample best;
   best.certified_error = kInf;
   for (int step = 0; step < options.max_refinements; ++step) {
+    if (uniform_triangle_count(model, n) > options.max_triangles) break;
     Tessellation mesh;
     const FitSample s = run.measure(Setting{n}, "refine", &mesh);
     ++result.iterations;
@@ -255,13 +257,14 @@ void fit_uniform(Runner& run, FitResult& result, const FitOptions& options) {
   if (best.certified_error <= target) {
     finish(result, best, std::move(best_mesh));
   } else {
-    finish(result, run.samples.back(), run.tessellate(Setting{n}));
+    const FitSample last = run.samples.back();
+    finish(result, last, run.tessellate(Setting{last.level}));
   }
 }
 
 // ---- ESC: error = C (L + 1)^-q + A rho^b --------------------------------------------------------
 
-void fit_esc(Runner& run, FitResult& result, const FitOptions& options) {
+void fit_esc(Runner& run, FitResult& result, const Model& model, const FitOptions& options) {
   const double target = result.target_error;
   // Cheap measurements: the floors (rho = 0) at levels 2..4 and the threshold's share at level 3.
   std::vector<FitSample> measured;
@@ -326,6 +329,7 @@ void fit_esc(Runner& run, FitResult& result, const FitOptions& options) {
   double fail_rho = kInf;  // smallest failing rho at the current level
   Setting s = chosen;
   for (int step = 0; step < options.max_refinements; ++step) {
+    if (esc_full_triangle_count(model, s.level) > options.max_triangles) break;
     Tessellation mesh;
     const FitSample m = run.measure(s, "refine", &mesh);
     ++result.iterations;
@@ -349,7 +353,7 @@ void fit_esc(Runner& run, FitResult& result, const FitOptions& options) {
       } else if (s.threshold > 0.0) {
         fail_rho = s.threshold;
         s.threshold = s.threshold > 0.05 * target ? 0.5 * s.threshold : 0.0;
-      } else if (s.level < kMaxEscLevel) {
+      } else if (s.level < kMaxEscLevel && esc_full_triangle_count(model, s.level + 1) <= options.max_triangles) {
         s = Setting{s.level + 1, 0.0};
         fail_rho = kInf;
       } else {
@@ -360,7 +364,8 @@ void fit_esc(Runner& run, FitResult& result, const FitOptions& options) {
   if (best.certified_error <= target) {
     finish(result, best, std::move(best_mesh));
   } else {
-    finish(result, run.samples.back(), run.tessellate(s));
+    const FitSample last = run.samples.back();
+    finish(result, last, run.tessellate(Setting{last.level, last.threshold}));
   }
 }
 
@@ -397,6 +402,7 @@ void fit_pn(Runner& run, FitResult& result, const Model& model, const FitOptions
   Tessellation best_mesh;
   int fail_k = 0;
   for (int step = 0; step < options.max_refinements; ++step) {
+    if (uniform_triangle_count(model, segments_for_level(s.base_level)) * uint64_t(s.level) * s.level > options.max_triangles) break;
     Tessellation mesh;
     const FitSample m = run.measure(s, "refine", &mesh);
     ++result.iterations;
@@ -425,7 +431,8 @@ void fit_pn(Runner& run, FitResult& result, const Model& model, const FitOptions
   if (best.certified_error <= target) {
     finish(result, best, std::move(best_mesh));
   } else {
-    finish(result, run.samples.back(), run.tessellate(s));
+    const FitSample last = run.samples.back();
+    finish(result, last, run.tessellate(Setting{last.level, 0.0, last.base_level}));
   }
 }
 
@@ -460,9 +467,13 @@ void fit_uniform_per_patch(Runner& run, FitResult& result, const Model& model, c
   Setting s;
   s.level = 0;
   FitSample last;
+  last.certified_error = kInf;
   Tessellation mesh;
   DistanceReport report;
   for (int step = 0; step < options.max_refinements; ++step) {
+    double estimate = 0.0;  // 2 (2^L)^2 triangles per bicubic-like patch
+    for (int level : levels) estimate += 2.0 * std::ldexp(1.0, 2 * level);
+    if (estimate > double(options.max_triangles)) break;
     s.patch_levels = levels;
     last = run.measure(s, "refine", &mesh, &report);
     ++result.iterations;
@@ -489,7 +500,7 @@ void fit_uniform_per_patch(Runner& run, FitResult& result, const Model& model, c
 // overshot: the threshold's share fitted at level 3 does not carry over to single patches.)
 void fit_esc_per_patch(Runner& run, FitResult& result, const Model& model, const FitOptions& options) {
   const double target = result.target_error;
-  fit_esc(run, result, options);
+  fit_esc(run, result, model, options);
   if (!result.met) return;
   const size_t np = model.patches.size();
   Setting s{result.level, result.threshold};
@@ -652,10 +663,10 @@ FitResult fit_to_error(const Model& model, const Topology& topology, FitScheme s
   Runner run(model, topology, scheme, options);
   switch (scheme) {
     case FitScheme::kUniform:
-      options.per_patch ? fit_uniform_per_patch(run, result, model, options) : fit_uniform(run, result, options);
+      options.per_patch ? fit_uniform_per_patch(run, result, model, options) : fit_uniform(run, result, model, options);
       break;
     case FitScheme::kEsc:
-      options.per_patch ? fit_esc_per_patch(run, result, model, options) : fit_esc(run, result, options);
+      options.per_patch ? fit_esc_per_patch(run, result, model, options) : fit_esc(run, result, model, options);
       break;
     case FitScheme::kPn:
       if (options.per_patch) throw InputError("--per-patch is available for uniform and esc, not pn");

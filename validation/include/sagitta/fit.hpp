@@ -69,6 +69,9 @@ struct FitOptions {
   int max_refinements = 12; // tessellate-certify steps after the first prediction
   // Stop tightening once the passing parameter is within this factor of a failing one (triangles).
   double tighten_ratio = 1.08;
+  // Settings whose (estimated) triangle count exceeds this are not tried: an unreachable target
+  // ends with met == false instead of exhausting memory.
+  uint64_t max_triangles = 5'000'000;
   bool esc_per_edge_levels = false;  // ESC: EscParams::per_edge_levels
   std::vector<int> esc_levels;       // ESC levels to consider; empty: chosen from the target
   int pn_max_base_level = 5;         // PN: base meshes 2^b segments, b = 0..pn_max_base_level
