@@ -80,6 +80,29 @@ void run_peer_occt(const PeerCliOptions& o) {
   doc["coverage_ok"] = r.distance.coverage_ok;
   if (!r.distance.coverage_note.empty()) doc["coverage_note"] = r.distance.coverage_note;
   doc["validate_seconds"] = r.validate_seconds;
+  if (!r.trimmed.empty()) {
+    // Trimmed faces, each measured against the face restricted to its trimmed domain (docs/CAD.md).
+    nlohmann::json faces = nlohmann::json::array();
+    for (const occt::TrimmedFacePeer& t : r.trimmed) {
+      nlohmann::json f = {{"name", t.name}, {"validated", t.validated}, {"triangles", t.triangles}, {"reasons", t.reasons}};
+      if (t.validated) {
+        f["pieces"] = t.pieces;
+        f["triangles_outside_domain"] = t.triangles_outside;
+        f["uv_area"] = t.uv_area;
+        f["domain_area"] = t.domain_area;
+        f["hausdorff"] = peer_interval_json(t.distance.hausdorff);
+        f["mesh_to_face"] = peer_interval_json(t.distance.mesh_to_surface);
+        f["face_to_mesh"] = peer_interval_json(t.distance.surface_to_mesh);
+      }
+      faces.push_back(f);
+    }
+    doc["trimmed_faces"] = {{"count", r.trimmed.size()},
+                            {"validated", r.trimmed_validated},
+                            {"upper_certified", r.trimmed_hausdorff.certified},
+                            {"interval", peer_interval_json(r.trimmed_hausdorff)},
+                            {"seconds", r.trimmed_seconds},
+                            {"faces", faces}};
+  }
   doc["topology"] = {{"open_edges", topo.open_edges},     {"model_boundary_edges", topo.model_boundary_edges},
                      {"crack_edges", topo.crack_edges},   {"t_junctions", topo.t_junctions},
                      {"non_manifold_edges", topo.non_manifold_edges},
@@ -95,6 +118,10 @@ void run_peer_occt(const PeerCliOptions& o) {
             << r.mesh_seconds << " s; hausdorff in [" << r.distance.hausdorff.lower << ", " << r.distance.hausdorff.upper << "]"
             << (r.distance.hausdorff.certified ? "" : " (upper not certified)") << " (" << r.route << " route"
             << (r.faces_not_validated ? ", " + std::to_string(r.faces_not_validated) + " trimmed/skipped faces not validated" : "")
+            << (r.trimmed.empty() ? std::string()
+                                  : "; trimmed faces " + std::to_string(r.trimmed_validated) + "/" + std::to_string(r.trimmed.size()) +
+                                        " validated, per-face max in [" + std::to_string(r.trimmed_hausdorff.lower) + ", " +
+                                        (r.trimmed_hausdorff.certified ? std::to_string(r.trimmed_hausdorff.upper) : std::string("not certified")) + "]")
             << "); cracks " << topo.crack_edges << ", T-junctions " << topo.t_junctions << "\n";
 }
 

@@ -384,7 +384,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
                                double tau, double target_ratio, int max_depth, Scratch& s, bool s2m_only = false,
                                const std::vector<std::array<Vec3, 3>>* s2m_targets = nullptr,
                                const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest = {},
-                               const OtherPatches& others = {}) {
+                               const OtherPatches& others = {}, bool own_uv_only = false) {
   TriangleResult res;
   std::vector<Leaf> stack;
   stack.push_back({{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}, 0});
@@ -410,7 +410,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
         qp[i] = project(*P.patch, X[i], q[i]);
         residual[i] = glm::length(X[i] - eval(*P.patch, qp[i]));
       }
-      m2s = std::min(lin, composed_bound(P, qp, X, s));
+      if (!own_uv_only) m2s = std::min(lin, composed_bound(P, qp, X, s));
       if (m2s > tau && !others.empty()) {
         // The leaf matched to another patch: sound for the distance to the model, and the only
         // tight match where the triangle leaves its own patch for a neighbour (folds, seams).
@@ -799,6 +799,10 @@ void certify_lowers(const Model& model, const Tessellation& mesh, const std::vec
     const BezierPatch& patch = model.patches[mesh.triangle_patch[t]];
     const Vec3 p = eval(patch, results[t].s2m_uv);
     points[i] = p;
+    if (options.in_domain && !options.in_domain(mesh.triangle_patch[t], results[t].s2m_uv)) {
+      low[i] = 0.0;  // not a point of the restricted surface: no witness
+      return;
+    }
     const PatchData P = make_patch_data(patch);
     const double eval_err = 4.0 * (P.n + P.m + 2) * kUnit * (P.hmag / P.wmin + glm::length(P.origin)) * P.wmax / P.wmin;
     low[i] = std::max(0.0, dist.distance(p) - dist.rounding_bound(p) - eval_err);
@@ -866,7 +870,7 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
   std::vector<Box> patch_boxes(model.patches.size());
   for (size_t p = 0; p < model.patches.size(); ++p) patch_boxes[p] = control_box(model.patches[p]);
   std::vector<std::vector<uint32_t>> near_patches(count);
-  if (model.patches.size() > 1) {
+  if (model.patches.size() > 1 && !options.in_domain) {
     using IdBox = CGAL::Box_intersection_d::Box_with_info_d<double, 3, size_t>;
     const double floor = 1e-12 * model_box(model).diagonal();
     std::vector<IdBox> tri_boxes, surface_boxes;
@@ -945,7 +949,7 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
     for (size_t t = range.begin(); t != range.end(); ++t) {
       results[t] =
           refine_triangle(pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], corners(t), tau, options.target_ratio, options.max_depth, s, false, nullptr, nearest,
-                          OtherPatches{&pd, &patch_boxes, &near_patches[t]});
+                          OtherPatches{&pd, &patch_boxes, &near_patches[t]}, static_cast<bool>(options.in_domain));
       if (results[t].m2s_est < est[t]) {
         results[t].m2s_est = est[t];
         results[t].m2s_point = est_point[t];
@@ -957,7 +961,8 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
     }
   });
   // Dropped degenerate triangles next to collapsed sides: surface->mesh only.
-  const std::vector<Hole> holes = collapsed_side_holes(model, mesh);
+  // (Not with a restricted domain: there coverage is the caller's to prove.)
+  const std::vector<Hole> holes = options.in_domain ? std::vector<Hole>{} : collapsed_side_holes(model, mesh);
   std::vector<TriangleResult> hole_results(holes.size());
   tbb::parallel_for(size_t(0), holes.size(), [&](size_t i) {
     Scratch s;
@@ -991,7 +996,12 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
     (void)q;
     report.rounding = 8.0 * (P.n + P.m + 1 + 4) * kUnit * (P.hmag + P.wmax * xmag) / P.wmin + 4.0 * kUnit * P.lipschitz;
   }
-  report.coverage_ok = check_coverage(model, mesh, holes, report.coverage_note);
+  if (options.in_domain) {
+    report.coverage_note = "restricted domain: the caller checks that the triangles cover it";
+    report.surface_to_mesh_over_triangles = s2m;
+  } else {
+    report.coverage_ok = check_coverage(model, mesh, holes, report.coverage_note);
+  }
   report.holes = holes.size();
   report.mesh_to_surface.upper = m2s;
   report.mesh_to_surface.certified = true;

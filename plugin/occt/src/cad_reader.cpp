@@ -32,6 +32,7 @@
 #include <Standard_Version.hxx>
 #include <Standard_Failure.hxx>
 #include <TColGeom_Array2OfBezierSurface.hxx>
+#include <TColStd_Array1OfReal.hxx>
 #include <TColStd_Array2OfReal.hxx>
 #include <TColgp_Array2OfPnt.hxx>
 #include <TopExp.hxx>
@@ -105,7 +106,11 @@ bool domain_is_rectangle(const TopoDS_Face& face, double u0, double u1, double v
 }
 
 // The face's surface over [u0, u1] x [v0, v1] as Bézier patches (exact), or a reason why not.
-std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1, double v0, double v1, std::string& reason) {
+// u_breaks / v_breaks receive the patch grid's lines in the converted surface's parameters (these
+// equal the face's (u, v) only where the conversion keeps the parametrisation: B-splines, Béziers,
+// planes; peer.cpp checks this at the mesh nodes before using them).
+std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1, double v0, double v1, std::string& reason,
+                                   std::vector<double>& u_breaks, std::vector<double>& v_breaks) {
   while (s->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface))) {
     s = Handle(Geom_RectangularTrimmedSurface)::DownCast(s)->BasisSurface();
   }
@@ -120,7 +125,11 @@ std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1,
       reason = "degree above 25";
       return {};
     }
-    if (u0 <= 0.0 + 1e-12 && u1 >= 1.0 - 1e-12 && v0 <= 1e-12 && v1 >= 1.0 - 1e-12) return {to_patch(b)};
+    if (u0 <= 0.0 + 1e-12 && u1 >= 1.0 - 1e-12 && v0 <= 1e-12 && v1 >= 1.0 - 1e-12) {
+      u_breaks = {0.0, 1.0};
+      v_breaks = {0.0, 1.0};
+      return {to_patch(b)};
+    }
     bs = GeomConvert::SurfaceToBSplineSurface(b);
   } else if (s->IsKind(STANDARD_TYPE(Geom_BSplineSurface))) {
     bs = Handle(Geom_BSplineSurface)::DownCast(s->Copy());
@@ -159,6 +168,13 @@ std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1,
             : GeomConvert_BSplineSurfaceToBezierSurface(bs, u0, u1, v0, v1, 1e-12 * std::max(1.0, std::max(u1 - u0, v1 - v0)));
   TColGeom_Array2OfBezierSurface patches(1, split.NbUPatches(), 1, split.NbVPatches());
   split.Patches(patches);
+  TColStd_Array1OfReal uk(1, split.NbUPatches() + 1), vk(1, split.NbVPatches() + 1);
+  split.UKnots(uk);
+  split.VKnots(vk);
+  u_breaks.clear();
+  v_breaks.clear();
+  for (int i = uk.Lower(); i <= uk.Upper(); ++i) u_breaks.push_back(uk(i));
+  for (int j = vk.Lower(); j <= vk.Upper(); ++j) v_breaks.push_back(vk(j));
   std::vector<BezierPatch> out;
   for (int i = patches.LowerRow(); i <= patches.UpperRow(); ++i) {
     for (int j = patches.LowerCol(); j <= patches.UpperCol(); ++j) out.push_back(to_patch(patches(i, j)));
@@ -333,7 +349,7 @@ CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name
         if (analytic && !options.convert_analytic) {
           r.reason = "analytic surface and convert_analytic is off";
         } else {
-          patches = decompose(surface, u0, u1, v0, v1, r.reason);
+          patches = decompose(surface, u0, u1, v0, v1, r.reason, r.u_breaks, r.v_breaks);
           for (size_t i = 0; i < patches.size() && r.reason.empty(); ++i) {
             try {
               validate_patch(patches[i], name + " " + r.name);

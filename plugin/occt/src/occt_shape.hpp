@@ -3,6 +3,7 @@
 
 #include "sagitta/occt/cad.hpp"
 
+#include <TopoDS_Face.hxx>
 #include <TopoDS_Shape.hxx>
 
 #include <string>
@@ -15,5 +16,10 @@ TopoDS_Shape read_cad_shape(const std::string& path);
 TopoDS_Shape read_brep_shape(const std::string& text, const std::string& name);
 // Faces of the shape (TopExp::MapShapes order) as Bézier patches, with a report per face.
 CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name, const CadOptions& options);
+// The triangulation OCCT left on a trimmed face, measured against the face (its Bézier patches
+// `report.patch_count` from trimmed_patches[report.first_patch], restricted to the trimmed domain);
+// trimmed.cpp and docs/CAD.md say what is certified.
+TrimmedFacePeer measure_trimmed_face(const TopoDS_Face& face, const FaceReport& report,
+                                     const std::vector<BezierPatch>& trimmed_patches, const CertifyOptions& certify);
 
 }  // namespace sagitta::occt

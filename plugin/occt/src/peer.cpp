@@ -27,6 +27,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <map>
 
 namespace sagitta::occt {
@@ -157,6 +158,33 @@ PeerResult peer_on_shape(const TopoDS_Shape& shape, const std::string& name, con
   r.triangles_validated = r.mesh.triangles.size();
   Model model = cad.model;
   validate(model, r, options);
+  // Trimmed faces, one by one against the face restricted to its trimmed domain.
+  if (options.validate_trimmed) {
+    const auto start = std::chrono::steady_clock::now();
+    r.trimmed_hausdorff.certified = true;
+    double upper = 0.0;
+    for (int k = 1; k <= faces.Extent(); ++k) {
+      const FaceReport& fr = cad.faces[k - 1];
+      if (fr.status != "trimmed") continue;
+      TrimmedFacePeer t;
+      try {
+        t = measure_trimmed_face(TopoDS::Face(faces(k)), fr, cad.trimmed_patches, options.certify);
+      } catch (const Standard_Failure& e) {
+        t.name = fr.name;
+        t.reasons.push_back(std::string("OCCT failed on the face (") + e.GetMessageString() + ")");
+      }
+      if (t.validated) {
+        ++r.trimmed_validated;
+        if (t.triangles > 0) --r.faces_not_validated;  // counted above as meshed but not validated
+        r.trimmed_hausdorff.lower = std::max(r.trimmed_hausdorff.lower, t.distance.hausdorff.lower);
+        upper = std::max(upper, t.distance.hausdorff.upper);
+      }
+      r.trimmed_hausdorff.certified = r.trimmed_hausdorff.certified && t.validated && t.distance.hausdorff.certified;
+      r.trimmed.push_back(std::move(t));
+    }
+    r.trimmed_hausdorff.upper = r.trimmed_hausdorff.certified ? upper : std::numeric_limits<double>::infinity();
+    r.trimmed_seconds = seconds_since(start);
+  }
   return r;
 }
 

@@ -10,6 +10,7 @@
 #include "sagitta/tessellation.hpp"
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -37,6 +38,17 @@ struct CertifyOptions {
   int lower_candidates = 24;
   // Node budget of the branch-and-bound that certifies d(x, S) from below, per candidate point.
   int lower_node_budget = 200000;
+  // Restricted domain (a trimmed face, docs/CAD.md): when set, only surface points S(patch, u, v)
+  // with in_domain(patch, (u, v)) true belong to the surface. The caller vouches that each
+  // triangle's (u, v) lies in the domain (or reports the bound as not certified); the validator then
+  //  - bounds mesh->surface with the triangle's own (u, v) only (no matching by projection or to
+  //    other patches, whose (u, v) could leave the domain),
+  //  - takes surface->mesh lower-bound witnesses only where in_domain is true,
+  //  - does not claim coverage: surface_to_mesh stays uncertified, and the bound over the surface
+  //    points above the triangles' (u, v) is given in DistanceReport::surface_to_mesh_over_triangles
+  //    (certified by the caller when it proves the triangles cover the domain).
+  // Called from several threads at once: it must be thread safe.
+  std::function<bool(uint32_t patch, Vec2 uv)> in_domain;
 };
 
 struct DistanceReport {
@@ -46,6 +58,9 @@ struct DistanceReport {
   std::vector<double> triangle_upper;  // per triangle: max of both directions' bounds over it
   bool coverage_ok = false;            // every patch's domain is covered by the triangles' (u, v)
   std::string coverage_note;           // why coverage failed, when it did
+  // With CertifyOptions::in_domain: max over the triangles of the surface->mesh bound of the surface
+  // points above the triangle's (u, v); +infinity otherwise.
+  double surface_to_mesh_over_triangles = std::numeric_limits<double>::infinity();
   uint64_t holes = 0;                  // dropped degenerate (u, v) triangles reconstructed at collapsed sides
   double rounding = 0.0;               // the largest rounding term added to any triangle's bound
   uint64_t leaves = 0;                 // sub-triangles evaluated in total

@@ -30,6 +30,10 @@ struct FaceReport {
   std::string reason;        // why trimmed or skipped ("" when tessellated)
   int first_patch = -1;      // tessellated: index into CadModel::model.patches; trimmed: into trimmed_patches
   int patch_count = 0;       // Bézier patches the face's surface decomposes into (0 when skipped)
+  // The patch grid: patch (i, j) (index first_patch + i * (v_breaks.size() - 1) + j) spans
+  // [u_breaks[i], u_breaks[i + 1]] x [v_breaks[j], v_breaks[j + 1]] of the converted surface's parameters
+  // (before the u reversal of reversed faces).
+  std::vector<double> u_breaks, v_breaks;
 };
 
 struct CadModel {
@@ -69,6 +73,24 @@ struct PeerOptions {
   // certify_external's reference segments per patch side when the (u, v) route does not apply;
   // 0 picks about 2 million reference triangles in all (between 2 and 32 segments per side).
   int reference_segments = 0;
+  bool validate_trimmed = true;  // CAD input: measure the trimmed faces' triangles too
+};
+
+// One trimmed face measured against the exact face = its surface restricted to the trimmed domain D
+// (docs/CAD.md, "Trimmed faces"). Lower bounds are always sound; an upper bound is certified only
+// when the checks named in `reasons` did not fail.
+struct TrimmedFacePeer {
+  std::string name;               // "Face 12"
+  bool validated = false;         // an interval was computed (false: `reasons` says why)
+  size_t triangles = 0;           // OCCT's triangles on the face
+  size_t pieces = 0;              // after splitting the (u, v) triangles along the Bézier patch grid
+  size_t triangles_outside = 0;   // (u, v) triangles not shown to lie inside D
+  double uv_area = 0.0;           // total (u, v) area of the triangles
+  double domain_area = 0.0;       // area of D (Green's theorem on the p-curves, Gauss quadrature)
+  bool straight_boundary = false; // every p-curve is a line
+  double max_node_offset = 0.0;   // largest |node - S(patch, local u, v)|: checks the (u, v) mapping
+  DistanceReport distance;        // mesh_to_surface / surface_to_mesh / hausdorff against the face
+  std::vector<std::string> reasons;
 };
 
 struct PeerResult {
@@ -85,6 +107,13 @@ struct PeerResult {
   double max_node_offset = 0.0;  // largest |node - S(u, v)| over OCCT's nodes (bernstein route)
   DistanceReport distance;
   double validate_seconds = 0.0;
+  // Trimmed faces (CAD input): each face's OCCT triangles against the face itself.
+  std::vector<TrimmedFacePeer> trimmed;
+  int trimmed_validated = 0;
+  // Max over the trimmed faces of the Hausdorff distance between a face's triangles and the face:
+  // lower = the largest face lower bound; upper certified only when every trimmed face's is.
+  DistanceInterval trimmed_hausdorff;
+  double trimmed_seconds = 0.0;
 };
 
 // Meshes a patch model with OCCT: one Geom_BezierSurface face per patch, sewn so that neighbouring
@@ -92,8 +121,9 @@ struct PeerResult {
 PeerResult peer_mesh_model(const Model& model, const PeerOptions& options = {});
 
 // Meshes a CAD file's whole shape with OCCT and validates the triangles of its untrimmed faces against
-// cad.model (route "reference": a B-spline face spans many Bézier patches). Trimmed and skipped faces
-// are meshed and counted but not validated (faces_not_validated).
+// cad.model (route "reference": a B-spline face spans many Bézier patches). Trimmed faces are measured
+// one by one against the face restricted to its trimmed domain (PeerResult::trimmed); skipped faces and
+// trimmed faces that cannot be measured are counted in faces_not_validated.
 PeerResult peer_mesh_cad_file(const std::string& path, const PeerOptions& options = {});
 PeerResult peer_mesh_brep_string(const std::string& brep_text, const std::string& name, const PeerOptions& options = {});
 
