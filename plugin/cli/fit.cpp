@@ -101,6 +101,7 @@ void run_fit(const FitCliOptions& o) {
   ProgressLine progress("sagitta fit");
   options.progress = [&](const FitProgress& p) { progress.update(p.step, p.steps, p.stage + " (certifying)"); };
   const FitResult result = fit_to_error(model, topology, parse_fit_scheme(o.scheme), o.target_error, options);
+  progress.clear();
   nlohmann::json doc = fit_result_json(result);
   doc["input"] = o.input.empty() ? "default" : o.input;
   doc["model"] = model.name;

@@ -10,8 +10,11 @@ namespace sagitta::cli {
 ProgressLine::ProgressLine(std::string label)
     : label_(std::move(label)), start_(std::chrono::steady_clock::now()), enabled_(isatty(STDERR_FILENO) == 1) {}
 
-ProgressLine::~ProgressLine() {
+ProgressLine::~ProgressLine() { clear(); }
+
+void ProgressLine::clear() {
   if (drawn_) std::fprintf(stderr, "\r\033[K");
+  drawn_ = false;
 }
 
 void ProgressLine::update(int step, int steps, const std::string& what) {

@@ -16,6 +16,8 @@ class ProgressLine {
 
   // Redraws "label [#####.....] step/steps what" (no bar when steps <= 0).
   void update(int step, int steps, const std::string& what);
+  // Erases the line (call before printing results); later updates draw again.
+  void clear();
 
  private:
   std::string label_;

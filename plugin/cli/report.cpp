@@ -475,6 +475,7 @@ void run_report(const ReportCliOptions& o) {
   ProgressLine progress("sagitta report");
   options.progress = [&](int done, int total, const std::string& what) { progress.update(done, total, what); };
   const nlohmann::json report = build_trade_report(models, options);
+  progress.clear();
   const std::string html = write_trade_report(report, o.out_dir);
   std::cout << "sagitta report: " << models.size() << " model(s) -> " << html << " and "
             << (std::filesystem::path(o.out_dir) / "report.json").string() << "\n";

@@ -93,6 +93,7 @@ void run_main_job(const RunOptions& o) {
     ProgressLine progress("sagitta run: fit");
     fit_options.progress = [&](const FitProgress& p) { progress.update(p.step, p.steps, p.stage + " (certifying)"); };
     const FitResult fit = fit_to_error(model, topology, FitScheme::kEsc, target, fit_options);
+    progress.clear();
     nlohmann::json fit_doc = fit_result_json(fit);
     const std::string fit_mesh = (dir / "fit.ply").string();
     io::write_mesh(fit.mesh, fit_mesh);
@@ -113,6 +114,7 @@ void run_main_job(const RunOptions& o) {
     ProgressLine progress("sagitta run: report");
     report_options.progress = [&](int done, int total, const std::string& what) { progress.update(done, total, what); };
     const nlohmann::json report = build_trade_report({{o.input.empty() ? "default" : o.input, model}}, report_options);
+    progress.clear();
     const std::string html = write_trade_report(report, o.out_dir);
     summary["report"] = html;
     std::cout << "  -> " << html << ", " << (dir / "report.json").string() << "\n";
