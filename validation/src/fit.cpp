@@ -140,6 +140,10 @@ class Runner {
     Tessellation mesh = tessellate(s);
     const DistanceReport r = certify_distance(model_, mesh, options_.certify);
     ++certifications;
+    if (!r.hausdorff.certified && stage == "measure") {
+      throw InputError(fit_scheme_name(scheme_) + " fit: the validator cannot certify an upper bound for this scheme on this model (" +
+                       (r.coverage_note.empty() ? std::string("surface-to-mesh not certified") : r.coverage_note) + ")");
+    }
     FitSample sample;
     sample.level = s.level;
     sample.threshold = s.threshold;
