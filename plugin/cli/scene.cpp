@@ -6,10 +6,7 @@
 #include "sagitta/io/model_io.hpp"
 #include "sagitta/io/scene_io.hpp"
 
-#if __has_include("progress.hpp")
 #include "progress.hpp"
-#define SAGITTA_HAVE_PROGRESS 1
-#endif
 
 #include <cstdlib>
 #include <filesystem>
@@ -101,13 +98,9 @@ Command register_scene(CLI::App& app) {
     const scene::LoadedScene loaded = scene::load_scene(scene, scene_dir.empty() ? "." : scene_dir, data_dir);
     const double load_seconds = load.seconds();
     const Stopwatch run;
-#ifdef SAGITTA_HAVE_PROGRESS
-    ProgressLine bar("scene");
+    ProgressLine bar("scene");  // drawn only on a terminal, after a second
     const scene::SceneResult result = scene::tessellate_scene(
         loaded, [&](size_t done, size_t all) { bar.update(static_cast<int>(done), static_cast<int>(all), "instances"); });
-#else
-    const scene::SceneResult result = scene::tessellate_scene(loaded);
-#endif
     const double run_seconds = run.seconds();
     if (!options->out.empty()) io::write_mesh(result.mesh, options->out);
     nlohmann::json j = scene_json(loaded, result);
