@@ -4,6 +4,7 @@
 
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/io/model_io.hpp"
+#include "sagitta/io/scene_io.hpp"
 
 #include <string>
 #include <vector>
@@ -11,7 +12,7 @@
 namespace sagitta::fuzz {
 
 // Names of the readers, which are also the corpus and regression folder names.
-inline std::vector<std::string> reader_names() { return {"bpt", "rib", "obj", "ply", "stl"}; }
+inline std::vector<std::string> reader_names() { return {"bpt", "rib", "obj", "ply", "stl", "scene"}; }
 
 // Parses `bytes` with the named reader; `name` is the file name put into error messages.
 // Guarantees: returns normally or throws what the reader throws; an unknown reader is a logic error.
@@ -22,6 +23,8 @@ inline void parse_with(const std::string& reader, const std::string& bytes, cons
     (void)io::parse_rib(bytes, name);
   } else if (reader == "obj" || reader == "ply" || reader == "stl") {
     (void)io::parse_mesh(bytes, name, "." + reader);
+  } else if (reader == "scene") {
+    (void)io::parse_scene(bytes, name);
   } else {
     throw std::logic_error("no reader called '" + reader + "'");
   }
