@@ -215,6 +215,8 @@ bool fit_occt(const Model& model, double target, occt::PeerResult& best, double&
 }
 
 void run_bench(const BenchOptions& o) {
+  // Line-buffered, so each row appears when measured, also when stdout is a pipe or a file.
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
   const Stopwatch total;
   const int all = tbb::info::default_concurrency();
   const int repeats = o.quick ? 2 : 5;
