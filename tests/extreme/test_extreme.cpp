@@ -107,11 +107,12 @@ struct CaseResult {
 
 // The per-case checks on one tessellation; returns the certificate and the reference.
 CaseResult check_case(const Model& model, const Topology& topology, const Tessellation& mesh,
-                      const CertifyOptions& options = {}, int samples = 3, size_t stride = 1, bool expect_coverage = true) {
+                      const CertifyOptions& options = {}, int samples = 3, size_t stride = 1, bool expect_coverage = true,
+                      bool expect_uv_boundary = true) {
   CaseResult out;
   EXPECT_FALSE(mesh.triangles.empty());
   expect_finite_with_normals(mesh);
-  expect_crack_free(model, topology, mesh);
+  if (expect_uv_boundary) expect_crack_free(model, topology, mesh);
   out.report = certify_distance(model, mesh, options);
   const DistanceInterval& m2s = out.report.mesh_to_surface;
   if (expect_coverage) EXPECT_TRUE(out.report.coverage_ok) << out.report.coverage_note;
@@ -258,16 +259,42 @@ TEST(ExtremeGeometry, WeightsFrom1eMinus6To1e6InOnePatch) {
   check_all_schemes(model);
 }
 
-// Known defect, disabled so CI stays green (run with --gtest_also_run_disabled_tests): a lone patch
-// whose collapsed side meets two free sides at the apex. Every scheme leaves an open interior edge
-// next to the apex (mesh_check reports 1 crack edge for uniform, 2 for ESC, more for PN). Where the
-// apex is surrounded by shared sides (the teapot lid, below) the output is closed.
-TEST(ExtremeGeometry, DISABLED_CollapsedSideMeetingTwoFreeSides) {
+// A lone patch whose collapsed side meets two free sides at the apex. The fan at the apex has two
+// open edges, one on each free side; the apex carries the (u, v) of its fan triangle, which lies on
+// the collapsed side, and mesh_check counts a point of a collapsed side as on both sides meeting it,
+// so both are model boundary (before, the v = 1 one was reported as a crack).
+TEST(ExtremeGeometry, CollapsedSideMeetingTwoFreeSides) {
   Model cone;
   BezierPatch p = curved_patch();
   for (int j = 0; j <= 3; ++j) p.at(0, j) = Vec3(0.0, 0.0, 1.0);
   cone.patches.push_back(p);
-  check_all_schemes(cone);
+  const Topology topology = build_topology(cone);
+  ASSERT_TRUE(topology.side(0, Side::kU0).collapsed);
+  for (Scheme s : kSchemes) {
+    SCOPED_TRACE(scheme_name(s));
+    const Tessellation mesh = tessellate(cone, topology, s);
+    // Known PN limitation (docs/PN.md, as on the teapot below): PN drops the base triangles with two
+    // corners at the apex (coverage 0.75 of the patch), and its sub-vertices on the base edge from
+    // the apex to the v = 1 side get (u, v) interpolated linearly from the apex's (0, 1/2), which
+    // leaves that side, so the (u, v) classification cannot call those boundary edges boundary.
+    // For PN the checks are: finite, unit normals, mesh->surface certified and above every sample,
+    // and every edge open only where the base mesh is open (no edge shared by one PN triangle only
+    // inside the base mesh): the open-edge count is exactly PN's subdivision of the base's.
+    const bool pn = s == Scheme::kPn;
+    check_case(cone, topology, mesh, {}, 3, 1, !pn, !pn);
+    const TopologyReport r = check_mesh_topology(mesh, &cone, &topology);
+    EXPECT_EQ(r.t_junctions, 0u);
+    EXPECT_EQ(r.non_manifold_edges, 0u);
+    EXPECT_EQ(r.inconsistent_orientation_edges, 0u);
+    if (pn) {
+      SchemeSettings base_settings;
+      base_settings.uniform_level = base_settings.pn_base_level;
+      const Tessellation base = tessellate(cone, topology, Scheme::kUniform, base_settings);
+      const TopologyReport rb = check_mesh_topology(base, &cone, &topology);
+      EXPECT_EQ(rb.crack_edges, 0u);
+      EXPECT_EQ(r.open_edges, rb.open_edges * static_cast<size_t>(SchemeSettings{}.pn_segments));
+    }
+  }
 }
 
 TEST(ExtremeGeometry, CollapsedSidesOfTheTeapotLidAndBottom) {
@@ -521,9 +548,9 @@ TEST(ExtremeGeometry, HundredThousandPatchesAtLevels0And1) {
 #ifdef SAGITTA_UNDER_ASAN
   GTEST_SKIP() << "100,000 patches take ~2.5 GiB and minutes; too large for an AddressSanitizer build";
 #endif
-  // Every scheme at levels 0 and 1: finite coordinates and unit normals; at level 0 also crack-free
-  // by mesh_check (the CGAL checks and the certificate on 800,000 triangles take minutes and GiBs,
-  // so the validator runs on the other cases only).
+  // Every scheme at levels 0 and 1: finite coordinates and unit normals. At level 0 (200,000 to
+  // 400,000 triangles) also the whole check_case: crack-free, certified (about 8 s per scheme in a
+  // Release build, 2 GiB), every 997th triangle sampled against the certified bound.
   for (int level : {0, 1}) {
     SchemeSettings s;
     s.uniform_level = level;
@@ -534,8 +561,12 @@ TEST(ExtremeGeometry, HundredThousandPatchesAtLevels0And1) {
       SCOPED_TRACE(std::string(scheme_name(scheme)) + " level " + std::to_string(level));
       const Tessellation mesh = tessellate(model, topology, scheme, s);
       EXPECT_GE(mesh.triangles.size(), 200000u);
-      expect_finite_with_normals(mesh);
-      if (level == 0) expect_crack_free(model, topology, mesh);
+      if (level == 0) {
+        const CaseResult r = check_case(model, topology, mesh, {}, 2, 997);
+        EXPECT_LE(r.report.hausdorff.upper, 1.1 * r.report.hausdorff.lower);
+      } else {
+        expect_finite_with_normals(mesh);
+      }
     }
   }
 }

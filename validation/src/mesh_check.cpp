@@ -30,13 +30,27 @@ uint64_t edge_key(uint32_t a, uint32_t b) {
   return (static_cast<uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
 }
 
-// Which side of the unit square both parameter points lie on, or -1.
-int common_side(const Vec2& a, const Vec2& b) {
-  if (a.x == 0.0 && b.x == 0.0) return static_cast<int>(Side::kU0);
-  if (a.x == 1.0 && b.x == 1.0) return static_cast<int>(Side::kU1);
-  if (a.y == 0.0 && b.y == 0.0) return static_cast<int>(Side::kV0);
-  if (a.y == 1.0 && b.y == 1.0) return static_cast<int>(Side::kV1);
-  return -1;
+// Bit mask (1 << Side) of the unit square's sides that the parameter point lies on.
+unsigned sides_of(const Vec2& p) {
+  unsigned m = 0;
+  if (p.x == 0.0) m |= 1u << static_cast<int>(Side::kU0);
+  if (p.x == 1.0) m |= 1u << static_cast<int>(Side::kU1);
+  if (p.y == 0.0) m |= 1u << static_cast<int>(Side::kV0);
+  if (p.y == 1.0) m |= 1u << static_cast<int>(Side::kV1);
+  return m;
+}
+
+// The sides a point with these sides also lies on because a side of the patch is collapsed: the
+// whole collapsed side is one surface point, which is also both end corners of that side, so it
+// lies on the two sides meeting it (u = 0 collapsed: v = 0 and v = 1).
+unsigned with_collapsed_corners(unsigned sides, const Topology& topology, uint32_t patch) {
+  static constexpr unsigned kAcross[4] = {(1u << 2) | (1u << 3), (1u << 2) | (1u << 3), (1u << 0) | (1u << 1),
+                                          (1u << 0) | (1u << 1)};
+  unsigned m = sides;
+  for (int s = 0; s < 4; ++s) {
+    if ((sides >> s & 1u) && topology.side(patch, static_cast<Side>(s)).collapsed) m |= kAcross[s];
+  }
+  return m;
 }
 
 // Free boundary curves of the model, with a distance query for points (dense samples and a
@@ -178,9 +192,14 @@ TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model,
           if (t[k] == a) ua = uv[k];
           if (t[k] == b) ub = uv[k];
         }
-        const int side = common_side(ua, ub);
-        if (side >= 0) {
-          const Topology::SideInfo& info = topology->side(mesh.triangle_patch[e.triangle], static_cast<Side>(side));
+        // Model boundary: both ends on one free side of the patch (a point of a collapsed side
+        // counts as on the sides meeting it, so a fan at an apex between two free sides is boundary).
+        const uint32_t patch = mesh.triangle_patch[e.triangle];
+        const unsigned common = with_collapsed_corners(sides_of(ua), *topology, patch) &
+                                with_collapsed_corners(sides_of(ub), *topology, patch);
+        for (int side = 0; side < 4 && !boundary; ++side) {
+          if (!(common >> side & 1u)) continue;
+          const Topology::SideInfo& info = topology->side(patch, static_cast<Side>(side));
           boundary = info.edge >= 0 && topology->edges[static_cast<size_t>(info.edge)].uses.size() == 1;
         }
       } else if (curves && !curves->curves.empty()) {
