@@ -133,8 +133,8 @@ inline __attribute__((always_inline)) void grid_row_fixed(const double* table, s
   }
 }
 
-// One patch's (n+1)^2 grid positions, row by row, written interleaved (x, y, z) to `out`. `hx`..`hw`
-// are scratch rows of n+1 doubles. Every position is the same sequence of IEEE operations as
+// One patch's (n+1)^2 grid positions, row by row, written interleaved (x, y, z) to `out`. `x`..`w`
+// are scratch rows of n+1 doubles (used for v-degrees above 3). Every position is the same sequence of IEEE operations as
 // PatchEvaluator::position (no fused multiply-add), so the output is bit-identical to it.
 template <class Out>
 inline __attribute__((always_inline)) void grid_patch_body(const PatchEvaluator& eval, const double* table,

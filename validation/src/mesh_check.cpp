@@ -44,11 +44,12 @@ unsigned sides_of(const Vec2& p) {
 // whole collapsed side is one surface point, which is also both end corners of that side, so it
 // lies on the two sides meeting it (u = 0 collapsed: v = 0 and v = 1).
 unsigned with_collapsed_corners(unsigned sides, const Topology& topology, uint32_t patch) {
-  static constexpr unsigned kAcross[4] = {(1u << 2) | (1u << 3), (1u << 2) | (1u << 3), (1u << 0) | (1u << 1),
-                                          (1u << 0) | (1u << 1)};
+  const auto bit = [](Side s) { return 1u << static_cast<int>(s); };
+  const unsigned v_sides = bit(Side::kV0) | bit(Side::kV1), u_sides = bit(Side::kU0) | bit(Side::kU1);
   unsigned m = sides;
-  for (int s = 0; s < 4; ++s) {
-    if ((sides >> s & 1u) && topology.side(patch, static_cast<Side>(s)).collapsed) m |= kAcross[s];
+  for (Side s : kAllSides) {
+    const bool u_side = s == Side::kU0 || s == Side::kU1;
+    if ((sides & bit(s)) && topology.side(patch, s).collapsed) m |= u_side ? v_sides : u_sides;
   }
   return m;
 }
