@@ -273,7 +273,7 @@ TEST(ExtremeGeometry, CollapsedSideMeetingTwoFreeSides) {
   for (Scheme s : kSchemes) {
     SCOPED_TRACE(scheme_name(s));
     const Tessellation mesh = tessellate(cone, topology, s);
-    // Known PN limitation (docs/PN.md, as on the teapot below): PN drops the base triangles with two
+    // Known PN limitation (docs/ACCURACY.md, as on the teapot below): PN drops the base triangles with two
     // corners at the apex (coverage 0.75 of the patch), and its sub-vertices on the base edge from
     // the apex to the v = 1 side get (u, v) interpolated linearly from the apex's (0, 1/2), which
     // leaves that side, so the (u, v) classification cannot call those boundary edges boundary.
