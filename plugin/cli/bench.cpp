@@ -217,6 +217,16 @@ bool fit_occt(const Model& model, double target, occt::PeerResult& best, double&
 void run_bench(const BenchOptions& o) {
   // Line-buffered, so each row appears when measured, also when stdout is a pipe or a file.
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  if (!o.json.empty()) {
+    std::vector<std::string> inputs;
+    for (const char* file : {"teapot.bpt", "teacup.bpt", "teaspoon.bpt"}) {
+      try {
+        inputs.push_back(data_path(o, file));
+      } catch (const InputError&) {  // a missing file is reported where it is read
+      }
+    }
+    check_outputs({{"--json", o.json}}, inputs);
+  }
   const Stopwatch total;
   const int all = tbb::info::default_concurrency();
   const int repeats = o.quick ? 2 : 5;

@@ -13,6 +13,8 @@
 #include <chrono>
 #include <functional>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace sagitta::cli {
 
@@ -39,8 +41,13 @@ Model load_model(const std::string& input, nlohmann::json* cad_stats = nullptr);
 // The CAD stats fields of a CAD model (see load_model).
 nlohmann::json cad_json(const occt::CadModel& cad);
 
-// Refuses to write an output onto one of the inputs.
-void check_output_is_not_input(const std::string& output, const std::string& input);
+// An output file with the option that names it ("--out", "run.json" ...), for messages.
+using NamedPath = std::pair<std::string, std::string>;
+
+// Refuses (InputError, before anything is read or written) an output that is the same file as any
+// input, and two outputs that are the same file; both after resolving symlinks, "./" and "..".
+// Empty paths and the input "default" (the built-in model) are ignored. Every command calls it with all its outputs and every file it reads.
+void check_outputs(const std::vector<NamedPath>& outputs, const std::vector<std::string>& inputs);
 
 // Writes a JSON document atomically, pretty-printed.
 void write_json(const std::string& path, const nlohmann::json& doc);

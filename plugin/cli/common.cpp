@@ -46,11 +46,34 @@ nlohmann::json cad_json(const occt::CadModel& cad) {
   return j;
 }
 
-void check_output_is_not_input(const std::string& output, const std::string& input) {
-  std::error_code ec;
-  if (!output.empty() && !input.empty() && std::filesystem::exists(output, ec) &&
-      std::filesystem::equivalent(output, input, ec)) {
-    throw InputError(output + ": refusing to overwrite the input file");
+namespace {
+
+// True when a and b name the same file: the same inode when both exist, else the same path once
+// symlinks, "." and ".." are resolved (two outputs that do not exist yet).
+bool same_file(const std::string& a, const std::string& b) {
+  namespace fs = std::filesystem;
+  std::error_code ea, eb;
+  if (fs::exists(a, ea) && fs::exists(b, eb)) return fs::equivalent(a, b, ea) && !ea;
+  const fs::path ca = fs::weakly_canonical(a, ea), cb = fs::weakly_canonical(b, eb);
+  return !ea && !eb && ca == cb;
+}
+
+}  // namespace
+
+void check_outputs(const std::vector<NamedPath>& outputs, const std::vector<std::string>& inputs) {
+  for (size_t k = 0; k < outputs.size(); ++k) {
+    const auto& [option, path] = outputs[k];
+    if (path.empty()) continue;
+    for (const std::string& input : inputs) {
+      if (!input.empty() && input != "default" && same_file(path, input)) {
+        throw InputError(path + ": " + option + " names an input file (" + input + "); refusing to overwrite it");
+      }
+    }
+    for (size_t j = 0; j < k; ++j) {
+      if (!outputs[j].second.empty() && same_file(path, outputs[j].second)) {
+        throw InputError(path + ": " + outputs[j].first + " and " + option + " name the same file");
+      }
+    }
   }
 }
 

@@ -87,8 +87,7 @@ struct FitCliOptions {
 };
 
 void run_fit(const FitCliOptions& o) {
-  check_output_is_not_input(o.json, o.input);
-  check_output_is_not_input(o.out, o.input);
+  check_outputs({{"--json", o.json}, {"--out", o.out}}, {o.input});
   if (!(o.target_error > 0.0) || !std::isfinite(o.target_error)) {
     throw InputError("--target-error must be a positive number of model units, got " + std::to_string(o.target_error));
   }
@@ -142,7 +141,7 @@ Command register_fit(CLI::App& app) {
   cmd->add_flag("--per-edge-levels", o->per_edge_levels,
                 "esc: each refined coarse edge takes the smallest sufficient level (EscParams::per_edge_levels, docs/ESC.md)");
   cmd->add_option("--max-refinements", o->max_refinements, "Tessellate-certify steps after the prediction")
-      ->check(CLI::PositiveNumber)
+      ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   return {cmd, [o] { run_fit(*o); }};
 }

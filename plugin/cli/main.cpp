@@ -5,13 +5,14 @@
 
 #include <iostream>
 #include <memory>
+#include <string>
 #include <vector>
 
 int main(int argc, char** argv) {
   CLI::App app{"sagitta: tessellate Bézier surfaces and certify how far the mesh is from the exact surface"};
   app.require_subcommand(1);
   int threads = 0;
-  app.add_option("--threads", threads, "Worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+  app.add_option("--threads", threads, "Worker threads (0: all cores)")->check(CLI::Range(0, 4096));
   const std::vector<sagitta::cli::Command> commands = {
       sagitta::cli::register_run(app),
       sagitta::cli::register_tessellate(app),
@@ -25,7 +26,15 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version print and exit 0; every other parse error is an input error: exit 2
+    // with one line, like a malformed file (CLI11's own codes 101..120 are not used).
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
+    std::string what = e.what();
+    for (char& c : what) {
+      if (c == '\n' || c == '\r') c = ' ';
+    }
+    std::cerr << "sagitta: " << what << " (see sagitta --help)\n";
+    return 2;
   }
   std::unique_ptr<tbb::global_control> limit;
   if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);

@@ -32,8 +32,7 @@ nlohmann::json peer_interval_json(const DistanceInterval& d) {
 }
 
 void run_peer_occt(const PeerCliOptions& o) {
-  check_output_is_not_input(o.out, o.input);
-  check_output_is_not_input(o.json, o.input);
+  check_outputs({{"--out", o.out}, {"--json", o.json}}, {o.input});
   if (o.max_depth < 0 || o.max_depth > 10) throw InputError("--max-depth must be in 0..10");
   const Stopwatch total;
   occt::PeerOptions options;

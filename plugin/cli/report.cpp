@@ -463,7 +463,16 @@ struct ReportCliOptions {
 };
 
 void run_report(const ReportCliOptions& o) {
-  for (const std::string& input : o.inputs) check_output_is_not_input(o.out_dir, input);
+  const std::filesystem::path dir(o.out_dir);
+  std::vector<NamedPath> outputs;
+  for (const char* file : {"report.json", "report.html", "plot.log"}) outputs.push_back({file, (dir / file).string()});
+  for (size_t k = 0; k < std::max<size_t>(o.inputs.size(), 1); ++k) {
+    for (const char* plot : {"_triangles.png", "_time.png"}) {
+      const std::string file = "model_" + std::to_string(k) + plot;
+      outputs.push_back({file, (dir / file).string()});
+    }
+  }
+  check_outputs(outputs, o.inputs);
   std::vector<NamedModel> models;
   for (const std::string& input : o.inputs) {
     models.push_back({input == "default" ? "default" : std::filesystem::path(input).filename().string(), load_model(input)});

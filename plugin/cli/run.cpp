@@ -57,6 +57,12 @@ nlohmann::json run_one_scheme(const Model& model, const Topology& topology, cons
 }
 
 void run_main_job(const RunOptions& o) {
+  std::vector<NamedPath> outputs;
+  for (const char* file : {"uniform.ply", "esc.ply", "pn.ply", "fit.ply", "fit.json", "report.json", "report.html",
+                           "plot.log", "model_0_triangles.png", "model_0_time.png", "run.json"}) {
+    outputs.push_back({file, (std::filesystem::path(o.out_dir) / file).string()});
+  }
+  check_outputs(outputs, {o.input});
   const Model model = load_model(o.input);
   const Topology topology = build_topology(model);
   std::filesystem::create_directories(o.out_dir);

@@ -83,8 +83,8 @@ Command register_scene(CLI::App& app) {
   command.app = cmd;
   command.run = [options]() {
     const Stopwatch total;
-    check_output_is_not_input(options->json, options->scene);
-    check_output_is_not_input(options->out, options->scene);
+    const std::vector<NamedPath> outputs = {{"--out", options->out}, {"--json", options->json}};
+    check_outputs(outputs, {options->scene});
     if (!options->out.empty() && !io::is_mesh_file(options->out)) {
       throw InputError(options->out + ": unknown mesh type (use .obj, .ply or .stl)");
     }
@@ -94,6 +94,9 @@ Command register_scene(CLI::App& app) {
     }
     const io::Scene scene = io::read_scene(options->scene);
     const std::string scene_dir = std::filesystem::path(options->scene).parent_path().string();
+    std::vector<std::string> inputs = {options->scene};  // the scene's model files are inputs too
+    for (const io::SceneModel& m : scene.models) inputs.push_back(scene::scene_model_path(m, scene_dir.empty() ? "." : scene_dir, data_dir));
+    check_outputs(outputs, inputs);
     const Stopwatch load;
     const scene::LoadedScene loaded = scene::load_scene(scene, scene_dir.empty() ? "." : scene_dir, data_dir);
     const double load_seconds = load.seconds();

@@ -304,32 +304,36 @@ double largest_stretch(const glm::dmat4& transform) {
   return std::min(upper, std::sqrt(lambda) * (1.0 + 1e-9));
 }
 
+std::string scene_model_path(const io::SceneModel& m, const std::string& scene_dir, const std::string& data_dir) {
+  const std::string& source = m.source;
+  if (source.rfind("fixture:", 0) == 0) return "";
+  std::filesystem::path path;
+  if (source.rfind("data:", 0) == 0) {
+    if (data_dir.empty()) {
+      throw InputError("scene model \"" + m.name + "\": " + source +
+                       " needs the shared data folder (--data-dir or SAGITTA_DATA_DIR)");
+    }
+    path = std::filesystem::path(data_dir) / source.substr(5);
+  } else {
+    path = std::filesystem::path(source);
+    if (path.is_relative()) path = std::filesystem::path(scene_dir) / path;
+  }
+  return path.string();
+}
+
 LoadedScene load_scene(const io::Scene& scene, const std::string& scene_dir, const std::string& data_dir) {
   LoadedScene loaded;
   loaded.scene = scene;
   for (const io::SceneModel& m : scene.models) {
     Model model;
-    const std::string& source = m.source;
-    if (source.rfind("fixture:", 0) == 0) {
-      const std::string name = source.substr(8);
+    const std::string path = scene_model_path(m, scene_dir, data_dir);
+    if (path.empty()) {
+      const std::string name = m.source.substr(8);
       model = name == "pillow_box" ? fixtures::pillow_box() : name == "rational_torus" ? fixtures::rational_torus()
                                                                                          : fixtures::default_model();
     } else {
-      std::filesystem::path path;
-      if (source.rfind("data:", 0) == 0) {
-        if (data_dir.empty()) {
-          throw InputError("scene model \"" + m.name + "\": " + source +
-                           " needs the shared data folder (--data-dir or SAGITTA_DATA_DIR)");
-        }
-        path = std::filesystem::path(data_dir) / source.substr(5);
-      } else {
-        path = std::filesystem::path(source);
-        if (path.is_relative()) path = std::filesystem::path(scene_dir) / path;
-      }
-      if (!std::filesystem::exists(path)) {
-        throw InputError("scene model \"" + m.name + "\": " + path.string() + ": no such file");
-      }
-      model = io::read_patch_model(path.string());
+      if (!std::filesystem::exists(path)) throw InputError("scene model \"" + m.name + "\": " + path + ": no such file");
+      model = io::read_patch_model(path);
     }
     model.name = m.name;
     loaded.topologies.push_back(build_topology(model));

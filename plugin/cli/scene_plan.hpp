@@ -30,6 +30,10 @@ struct LoadedScene {
 // "data:" with no data folder given.
 LoadedScene load_scene(const io::Scene& scene, const std::string& scene_dir, const std::string& data_dir);
 
+// The file a scene model is read from ("" for a "fixture:" model); throws InputError for "data:"
+// without a data folder.
+std::string scene_model_path(const io::SceneModel& model, const std::string& scene_dir, const std::string& data_dir);
+
 // The camera's frame and projection.
 struct View {
   Vec3 eye{0.0}, forward{0.0, 0.0, -1.0}, right{1.0, 0.0, 0.0}, up{0.0, 1.0, 0.0};

@@ -44,8 +44,7 @@ void run_tessellate_mesh(const TessellateOptions& o) {
 }
 
 void run_tessellate(const TessellateOptions& o) {
-  check_output_is_not_input(o.out, o.input);
-  check_output_is_not_input(o.stats, o.input);
+  check_outputs({{"--out", o.out}, {"--stats", o.stats}}, {o.input});
   if (io::is_mesh_file(o.input)) {
     run_tessellate_mesh(o);
     return;

@@ -78,10 +78,7 @@ nlohmann::json topology_report_json(const TopologyReport& t) {
 namespace {
 
 int run_validate(const ValidateOptions& o) {
-  check_output_is_not_input(o.json, o.input);
-  check_output_is_not_input(o.json, o.mesh);
-  check_output_is_not_input(o.error_ply, o.input);
-  check_output_is_not_input(o.error_ply, o.mesh);
+  check_outputs({{"--json", o.json}, {"--error-ply", o.error_ply}}, {o.input, o.mesh});
   if (o.max_depth < 0 || o.max_depth > 10) throw InputError("--max-depth must be in 0..10");
   const Stopwatch total;
   nlohmann::json cad;

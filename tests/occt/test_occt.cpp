@@ -163,6 +163,28 @@ TEST(OcctReader, EveryFaceOfBottleAndScrewIsAccountedFor) {
   }
 }
 
+// A STEP face whose surface reference dangles is dropped by OCCT's reader: it is still listed as
+// skipped (with a reason), so tessellated + trimmed + skipped = the file's 10 faces.
+TEST(OcctReader, StepFaceWithADanglingReferenceIsListedAsSkipped) {
+  const std::string screw = shared_data("cad/screw.step");
+  SAGITTA_REQUIRE_DATA(screw);
+  std::string text = io::read_text_file(screw);
+  const std::string face = "#14 = ADVANCED_FACE('',(#15),#49,.F.);";
+  const size_t at = text.find(face);
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, face.size(), "#14 = ADVANCED_FACE('',(#15),#999999,.F.);");
+  const std::filesystem::path path = std::filesystem::temp_directory_path() / ("sagitta_dangling_" + std::to_string(::getpid()) + ".step");
+  std::ofstream(path, std::ios::binary) << text;
+  const occt::CadModel cad = occt::read_cad_file(path.string());
+  std::filesystem::remove(path);
+  EXPECT_EQ(cad.faces.size(), 10u);
+  EXPECT_EQ(cad.faces_tessellated + cad.faces_trimmed + cad.faces_skipped, 10);
+  EXPECT_GE(cad.faces_skipped, 1);
+  for (const occt::FaceReport& f : cad.faces) {
+    if (f.status != "tessellated") EXPECT_FALSE(f.reason.empty()) << f.name;
+  }
+}
+
 TEST(OcctReader, MalformedFilesAreRejectedWithTheirName) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("sagitta_occt_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);

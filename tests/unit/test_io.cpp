@@ -125,6 +125,98 @@ TEST(Rib, RejectsMalformedInput) {
             std::string::npos);
 }
 
+// A unit cube around the origin as six bilinear RIB patches, each written (u fastest) so that
+// RenderMan's default orientation makes its outside face away from the cube.
+std::string rib_cube(const std::string& prefix) {
+  // Per face: P00, P10, P01, P11 with (P10 - P00) x (P01 - P00) pointing out.
+  const char* faces[] = {
+      "1 0 0  1 1 0  1 0 1  1 1 1",  // +x
+      "0 0 0  0 0 1  0 1 0  0 1 1",  // -x
+      "0 1 0  0 1 1  1 1 0  1 1 1",  // +y
+      "0 0 0  1 0 0  0 0 1  1 0 1",  // -y
+      "0 0 1  1 0 1  0 1 1  1 1 1",  // +z
+      "0 0 0  0 1 0  1 0 0  1 1 0",  // -z
+  };
+  std::string rib = prefix + "\nTranslate -0.5 -0.5 -0.5\n";
+  for (const char* f : faces) rib += std::string("Patch \"bilinear\" \"P\" [") + f + "]\n";
+  return rib;
+}
+
+// +1 when every patch's du x dv at its centre points away from the model's centre, -1 when every
+// one points towards it, 0 otherwise.
+int patch_orientation(const Model& m) {
+  Vec3 centre(0.0);
+  for (const BezierPatch& p : m.patches) centre += (p.at(0, 0) + p.at(1, 1)) * 0.5;
+  centre /= static_cast<double>(m.patches.size());
+  int out = 0, in = 0;
+  for (const BezierPatch& p : m.patches) {
+    const Vec3 du = (p.at(1, 0) + p.at(1, 1)) - (p.at(0, 0) + p.at(0, 1));
+    const Vec3 dv = (p.at(0, 1) + p.at(1, 1)) - (p.at(0, 0) + p.at(1, 0));
+    const double d = glm::dot(glm::cross(du, dv), (p.at(0, 0) + p.at(1, 1)) * 0.5 - centre);
+    out += d > 0.0;
+    in += d < 0.0;
+  }
+  return out == static_cast<int>(m.patches.size()) ? 1 : in == static_cast<int>(m.patches.size()) ? -1 : 0;
+}
+
+// RenderMan (RISpec 3.2, 4.2.14): the default orientation is outside = dPdu x dPdv with RIB's u
+// the fastest index; a mirroring transform flips the coordinate system and the orientation
+// together (the surface stays outward); ReverseOrientation and Orientation "inside" turn it in.
+TEST(Rib, OrientationFollowsRenderMan) {
+  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube(""), "cube.rib")), 1);
+  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Scale 1 1 -1"), "mirrored.rib")), 1);
+  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("ConcatTransform [-2 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1]"), "m.rib")), 1);
+  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("ReverseOrientation"), "reversed.rib")), -1);
+  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Orientation \"inside\""), "inside.rib")), -1);
+  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Orientation \"rh\""), "rh.rib")), -1);
+  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Scale 1 1 -1 Orientation \"rh\""), "mirrored_rh.rib")), 1);
+  // ReverseOrientation is an attribute: AttributeEnd restores it, TransformEnd does not.
+  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("AttributeBegin ReverseOrientation AttributeEnd"), "a.rib")), 1);
+  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("TransformBegin ReverseOrientation TransformEnd"), "t.rib")), -1);
+}
+
+TEST(Rib, TransformReplacesAndSingularTransformsAreRefused) {
+  const Model m = io::parse_rib(
+      "Translate 5 0 0\nTransform [2 0 0 0  0 2 0 0  0 0 2 0  0 0 1 1]\n"
+      "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n",
+      "t.rib");
+  EXPECT_EQ(m.patches[0].at(1, 1), Vec3(2, 2, 1));
+  const std::string patch = "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n";
+  EXPECT_EQ(error_of([&] { io::parse_rib("Scale 0 0 0\n" + patch, "s.rib"); }),
+            "s.rib:1: Scale by zero makes the transformation singular");
+  EXPECT_EQ(error_of([&] { io::parse_rib("\nTransform [1 0 0 0 0 1 0 0 0 0 0 0 0 0 0 1]\n" + patch, "z.rib"); }),
+            "z.rib:2: Transform matrix is singular");
+  EXPECT_EQ(error_of([&] { io::parse_rib("Scale 1e-200 1e-200 1e-200\nScale 1e-200 1 1\n" + patch, "u.rib"); }),
+            "u.rib:2: Scale makes the transformation singular (or not finite)");
+  for (const char* request : {"ObjectBegin 1", "ObjectInstance 1", "MotionBegin [0 1]", "Skew 45 0 1 0 1 0 0"}) {
+    const std::string word = std::string(request).substr(0, std::string(request).find(' '));
+    EXPECT_EQ(error_of([&] { io::parse_rib(std::string(request) + "\n" + patch, "r.rib"); }).rfind("r.rib:1: " + word + " is not supported", 0),
+              0u)
+        << request;
+  }
+  EXPECT_EQ(error_of([] { io::parse_rib("Orientation \"sideways\"\n", "o.rib"); }),
+            "o.rib:1: Orientation must be \"outside\", \"inside\", \"lh\" or \"rh\"");
+  EXPECT_EQ(error_of([] { io::parse_rib("Attribute \"" + std::string(5000, 'a') + "\"\n", "l.rib"); }),
+            "l.rib:1: string longer than 4096 bytes");
+}
+
+// Text inputs are refused at the first NUL byte or over-long line, naming the line: devices such as
+// /dev/zero cost one chunk, not all of memory.
+TEST(TextInput, RefusesNulBytesAndOverlongLinesAsTheyAreRead) {
+  const fs::path dir = fs::temp_directory_path() / ("sagitta_text_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string nul = (dir / "nul.bpt").string(), longline = (dir / "long.obj").string();
+  std::ofstream(nul, std::ios::binary) << "1\n1 1\n0 0 0" << '\0' << "\n";
+  std::ofstream(longline, std::ios::binary) << "v 0 0 0\n" << std::string(io::kMaxLineBytes + 1, '1') << "\n";
+  EXPECT_EQ(error_of([&] { io::read_bpt(nul); }), nul + ":3: contains a NUL byte (binary data, not a text file)");
+  EXPECT_EQ(error_of([&] { io::read_mesh(longline); }), longline + ":2: line longer than 65536 bytes (no valid line is that long)");
+  if (fs::exists("/dev/zero")) {
+    EXPECT_EQ(error_of([] { io::read_text_input("/dev/zero"); }), "/dev/zero:1: contains a NUL byte (binary data, not a text file)");
+    EXPECT_EQ(error_of([] { io::read_scene("/dev/zero"); }), "/dev/zero:1: contains a NUL byte (binary data, not a text file)");
+  }
+  fs::remove_all(dir);
+}
+
 class MeshFiles : public ::testing::Test {
  protected:
   void SetUp() override {

@@ -12,38 +12,124 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <atomic>
+#include <csignal>
+#include <mutex>
+#include <pthread.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace sagitta::io {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+// The temporary files of writes in progress, for the signal handler: a slot is claimed (1) while
+// its path is copied in, live (2) while the file may exist, free (0) otherwise.
+constexpr int kTempSlots = 64;
+char temp_paths[kTempSlots][4096];
+std::atomic<int> temp_state[kTempSlots];
+mode_t process_umask = 022;
+
+void on_fatal_signal(int sig) {
+  remove_temp_files();
+  ::raise(sig);  // SA_RESETHAND restored the default action: it takes effect when the handler returns
+}
+
+// Once per process: remembers the umask and installs the handler for SIGINT, SIGTERM and SIGHUP
+// where the disposition is still the default (an ignored signal or another handler is kept).
+void install_temp_cleanup() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    process_umask = ::umask(0);
+    ::umask(process_umask);
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) {
+      struct sigaction old {};
+      if (::sigaction(sig, nullptr, &old) != 0 || old.sa_handler != SIG_DFL || (old.sa_flags & SA_SIGINFO)) continue;
+      struct sigaction act {};
+      act.sa_handler = on_fatal_signal;
+      sigemptyset(&act.sa_mask);
+      act.sa_flags = SA_RESETHAND;
+      ::sigaction(sig, &act, nullptr);
+    }
+  });
+}
+
+// Registers a temporary path; returns its slot, or -1 when all slots are taken (the file is then
+// still removed on every error, only not on a signal).
+int register_temp(const std::string& path) {
+  if (path.size() >= sizeof temp_paths[0]) return -1;
+  for (int k = 0; k < kTempSlots; ++k) {
+    int expected = 0;
+    if (temp_state[k].compare_exchange_strong(expected, 1)) {
+      std::memcpy(temp_paths[k], path.c_str(), path.size() + 1);
+      temp_state[k].store(2);
+      return k;
+    }
+  }
+  return -1;
+}
+
+void unregister_temp(int slot) {
+  if (slot >= 0) temp_state[slot].store(0);
+}
+
+}  // namespace
+
+void remove_temp_files() noexcept {
+  for (int k = 0; k < kTempSlots; ++k) {
+    if (temp_state[k].load() == 2) ::unlink(temp_paths[k]);
+  }
+}
+
 void write_file_atomic(const std::string& path, const std::string& bytes) {
+  install_temp_cleanup();
   const fs::path target(path);
   const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
   std::string tmpl = (dir / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
+  // Block the cleanup signals while the file is created and registered, so no handler runs between.
+  sigset_t block, previous;
+  sigemptyset(&block);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&block, sig);
+  ::pthread_sigmask(SIG_BLOCK, &block, &previous);
   const int fd = mkstemp(tmpl.data());
-  if (fd < 0) throw InputError(path + ": cannot create a temporary file in " + dir.string() + ": " + std::strerror(errno));
+  const int create_errno = errno;
+  const int slot = fd >= 0 ? register_temp(tmpl) : -1;
+  ::pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+  if (fd < 0) throw InputError(path + ": cannot create a temporary file in " + dir.string() + ": " + std::strerror(create_errno));
+  auto give_up = [&](const std::string& what) {
+    const std::string why = std::strerror(errno);
+    ::close(fd);
+    ::unlink(tmpl.c_str());
+    unregister_temp(slot);
+    throw InputError(path + ": " + what + ": " + why);
+  };
+  // mkstemp creates mode 0600: a replaced file keeps its mode, a new one gets 0666 minus the umask.
+  struct stat existing {};
+  const mode_t mode = ::stat(path.c_str(), &existing) == 0 && S_ISREG(existing.st_mode) ? existing.st_mode & 07777
+                                                                                          : 0666 & ~process_umask;
+  if (::fchmod(fd, mode) != 0) give_up("cannot set the file mode");
   size_t written = 0;
   while (written < bytes.size()) {
     const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
-    if (n <= 0) {
-      const std::string why = std::strerror(errno);
-      ::close(fd);
-      ::unlink(tmpl.c_str());
-      throw InputError(path + ": write failed: " + why);
-    }
+    if (n <= 0) give_up("write failed");
     written += static_cast<size_t>(n);
   }
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+  if (::fsync(fd) != 0) give_up("write failed");
+  if (::close(fd) != 0) {
+    const std::string why = std::strerror(errno);
     ::unlink(tmpl.c_str());
-    throw InputError(path + ": write failed: " + std::strerror(errno));
+    unregister_temp(slot);
+    throw InputError(path + ": write failed: " + why);
   }
   if (std::rename(tmpl.c_str(), path.c_str()) != 0) {
     const std::string why = std::strerror(errno);
     ::unlink(tmpl.c_str());
+    unregister_temp(slot);
     throw InputError(path + ": cannot rename the temporary file into place: " + why);
   }
+  unregister_temp(slot);  // after the rename: a signal in between unlinks a name that is gone
 }
 
 namespace {

@@ -3,6 +3,8 @@
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/io/model_io.hpp"
 
+#include "text_input.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -354,12 +356,58 @@ Tessellation parse_stl(const std::string& text, const std::string& name) {
 
 }  // namespace
 
+namespace {
+
+// A PLY file: the header is text (it must start with "ply" and end within 1 MiB; NUL bytes and
+// long lines are refused as they are read); an ASCII body is checked the same way, a binary body is read as it is.
+std::string read_ply_file(const std::string& path) {
+  detail::TextScanner scanner(path, kMaxLineBytes);
+  size_t header_end = std::string::npos;
+  bool binary = false;
+  return detail::read_file_chunked(path, [&](const std::string& bytes) {
+    if (bytes.compare(0, 3, "ply", 0, std::min<size_t>(3, bytes.size())) != 0) fail(path, 1, "not a PLY file (no header)");
+    if (header_end == std::string::npos) {
+      header_end = bytes.find("end_header");
+      if (header_end != std::string::npos) {
+        const size_t format = bytes.find("\nformat binary");
+        binary = format != std::string::npos && format < header_end;
+      } else {
+        scanner.scan(bytes);
+        if (bytes.size() > (1u << 20)) fail(path, 0, "no end_header in the first MiB (not a PLY header)");
+        return;
+      }
+    }
+    if (!binary) scanner.scan(bytes);
+  });
+}
+
+// An STL file: binary (84 + 50 n bytes for n triangles) or ASCII ("solid" ...). Reading stops as
+// soon as the bytes can be neither: past the binary size without a "solid" header, or, once past
+// the binary size, at a NUL byte or an over-long line.
+std::string read_stl_file(const std::string& path) {
+  detail::TextScanner scanner(path, kMaxLineBytes);
+  return detail::read_file_chunked(path, [&](const std::string& bytes) {
+    if (bytes.size() < 84) return;
+    uint32_t n;
+    std::memcpy(&n, bytes.data() + 80, 4);
+    if (bytes.size() <= 84 + 50ull * n) return;  // may still be binary
+    if (bytes.compare(0, 5, "solid") != 0) {
+      fail(path, 0, "not an STL file: binary size does not match its triangle count and no 'solid' header");
+    }
+    scanner.scan(bytes);
+  });
+}
+
+}  // namespace
+
 Tessellation read_mesh(const std::string& path) {
   const std::string ext = file_extension(path);
   if (!is_mesh_file(path)) {
     throw InputError(path + ": unknown mesh type (expected .obj, .ply or .stl)");
   }
-  return parse_mesh(read_text_file(path), path, ext);
+  if (ext == ".ply") return parse_mesh(read_ply_file(path), path, ext);
+  if (ext == ".stl") return parse_mesh(read_stl_file(path), path, ext);
+  return parse_mesh(read_text_input(path), path, ext);
 }
 
 Tessellation parse_mesh(const std::string& bytes, const std::string& name, const std::string& ext) {

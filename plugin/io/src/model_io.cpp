@@ -1,8 +1,13 @@
 #include "sagitta/io/model_io.hpp"
 
-#include <glm/gtc/matrix_transform.hpp>
-#include <glm/mat4x4.hpp>
+#include "text_input.hpp"
 
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/geometric.hpp>
+#include <glm/mat4x4.hpp>
+#include <glm/matrix.hpp>
+
+#include <algorithm>
 #include <cctype>
 #include <filesystem>
 #include <cerrno>
@@ -21,6 +26,47 @@ std::string read_text_file(const std::string& path) {
   s << in.rdbuf();
   if (in.bad()) throw InputError(path + ": read error");
   return s.str();
+}
+
+namespace detail {
+
+void TextScanner::scan(const std::string& text) {
+  for (; scanned_ < text.size(); ++scanned_) {
+    const char c = text[scanned_];
+    if (c == '\n') {
+      ++line_;
+      length_ = 0;
+      continue;
+    }
+    if (c == '\0') throw InputError(name_ + ":" + std::to_string(line_) + ": contains a NUL byte (binary data, not a text file)");
+    if (max_line_ && ++length_ > max_line_) {
+      throw InputError(name_ + ":" + std::to_string(line_) + ": line longer than " + std::to_string(max_line_) +
+                       " bytes (no valid line is that long)");
+    }
+  }
+}
+
+std::string read_file_chunked(const std::string& path, const std::function<void(const std::string&)>& after_chunk) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open for reading");
+  std::string bytes;
+  std::vector<char> chunk(65536);
+  while (in) {
+    in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
+    const std::streamsize got = in.gcount();
+    if (got <= 0) break;
+    bytes.append(chunk.data(), static_cast<size_t>(got));
+    after_chunk(bytes);
+  }
+  if (in.bad()) throw InputError(path + ": read error");
+  return bytes;
+}
+
+}  // namespace detail
+
+std::string read_text_input(const std::string& path, size_t max_line) {
+  detail::TextScanner scanner(path, max_line);
+  return detail::read_file_chunked(path, [&](const std::string& bytes) { scanner.scan(bytes); });
 }
 
 namespace {
@@ -149,7 +195,7 @@ Model parse_bpt(const std::string& text, const std::string& name) {
   return model;
 }
 
-Model read_bpt(const std::string& path) { return parse_bpt(read_text_file(path), path); }
+Model read_bpt(const std::string& path) { return parse_bpt(read_text_input(path), path); }
 
 namespace {
 
@@ -175,6 +221,7 @@ class RibLexer {
     if (c == '"') {
       const size_t end = text_.find('"', pos_ + 1);
       if (end == std::string::npos) fail(name_, line_, "unterminated string");
+      if (end - pos_ - 1 > kMaxRibToken) fail(name_, line_, "string longer than " + std::to_string(kMaxRibToken) + " bytes");
       t.kind = RibToken::kString;
       t.text = text_.substr(pos_ + 1, end - pos_ - 1);
       for (char q : t.text) line_ += q == '\n';
@@ -186,6 +233,7 @@ class RibLexer {
            text_[end] != ']' && text_[end] != '"' && text_[end] != '#') {
       ++end;
     }
+    if (end - pos_ > kMaxRibToken) fail(name_, line_, "token longer than " + std::to_string(kMaxRibToken) + " bytes");
     t.text = text_.substr(pos_, end - pos_);
     pos_ = end;
     if (std::isalpha(static_cast<unsigned char>(t.text[0])) && t.text != "nan" && t.text != "inf") {
@@ -214,12 +262,35 @@ class RibLexer {
   size_t line_ = 1;
 };
 
+// True when a 4x4 matrix is singular up to rounding or not finite: with each column scaled to
+// length 1, |det| <= 1e-12 (it is at most 1 by Hadamard's bound). Scale-invariant per column.
+bool singular(const glm::dmat4& m) {
+  glm::dmat4 unit;
+  for (int c = 0; c < 4; ++c) {
+    double largest = 0.0;  // scaled by its largest entry first, so the length cannot overflow
+    for (int k = 0; k < 4; ++k) largest = std::max(largest, std::abs(m[c][k]));
+    if (!std::isfinite(largest) || !(largest > 0.0)) return true;
+    unit[c] = glm::normalize(m[c] / largest);
+  }
+  return !(std::abs(glm::determinant(unit)) > 1e-12);
+}
+
 }  // namespace
 
 Model parse_rib(const std::string& text, const std::string& name) {
   RibLexer lex(text, name);
-  std::vector<glm::dmat4> stack;
+  // Orientation (RenderMan Interface Specification 3.2, section 4.2.14): the initial coordinate
+  // system is left-handed and so is the initial current orientation; a transform with a negative
+  // determinant flips both, so whether they match changes only by ReverseOrientation and
+  // Orientation. Where they match, the outside normal is dPdu x dPdv computed in object
+  // coordinates; it is flipped where they do not.
+  struct State {
+    glm::dmat4 ctm{1.0};
+    bool orientation_matches = true;
+  };
+  std::vector<State> stack;
   glm::dmat4 ctm(1.0);
+  bool orientation_matches = true;
   Model model;
   model.name = name;
   RibToken tok = lex.next();
@@ -251,13 +322,19 @@ Model parse_rib(const std::string& text, const std::string& name) {
     }
     const std::string req = tok.text;
     const size_t line = tok.line;
+    // Every transform request leaves a regular current transformation, or the file is refused.
+    auto set_ctm = [&](const glm::dmat4& m) {
+      if (singular(m)) fail(name, line, req + " makes the transformation singular (or not finite)");
+      ctm = m;
+    };
     if (req == "TransformBegin" || req == "AttributeBegin") {
       if (stack.size() > 10000) fail(name, line, req + " nested more than 10000 deep");
-      stack.push_back(ctm);
+      stack.push_back({ctm, orientation_matches});
       tok = lex.next();
     } else if (req == "TransformEnd" || req == "AttributeEnd") {
       if (stack.empty()) fail(name, line, req + " without a matching Begin");
-      ctm = stack.back();
+      ctm = stack.back().ctm;
+      if (req == "AttributeEnd") orientation_matches = stack.back().orientation_matches;  // an attribute
       stack.pop_back();
       tok = lex.next();
     } else if (req == "Identity") {
@@ -265,20 +342,37 @@ Model parse_rib(const std::string& text, const std::string& name) {
       tok = lex.next();
     } else if (req == "Translate") {
       const auto v = numbers(3, req, line);
-      ctm = glm::translate(ctm, Vec3(v[0], v[1], v[2]));
+      set_ctm(glm::translate(ctm, Vec3(v[0], v[1], v[2])));
     } else if (req == "Scale") {
       const auto v = numbers(3, req, line);
-      ctm = glm::scale(ctm, Vec3(v[0], v[1], v[2]));
+      if (v[0] == 0.0 || v[1] == 0.0 || v[2] == 0.0) fail(name, line, "Scale by zero makes the transformation singular");
+      set_ctm(glm::scale(ctm, Vec3(v[0], v[1], v[2])));
     } else if (req == "Rotate") {
       const auto v = numbers(4, req, line);
       const Vec3 axis(v[1], v[2], v[3]);
       if (axis == Vec3(0.0)) fail(name, line, "Rotate about a zero axis");
-      ctm = glm::rotate(ctm, glm::radians(v[0]), axis);
-    } else if (req == "ConcatTransform") {
+      set_ctm(glm::rotate(ctm, glm::radians(v[0]), axis));
+    } else if (req == "ConcatTransform" || req == "Transform") {
       const auto v = numbers(16, req, line);
       glm::dmat4 m;
       for (int k = 0; k < 16; ++k) m[k / 4][k % 4] = v[static_cast<size_t>(k)];  // RIB rows are GLM columns
-      ctm = ctm * m;
+      if (singular(m)) fail(name, line, req + " matrix is singular");
+      set_ctm(req == "Transform" ? m : ctm * m);  // Transform replaces the current transformation
+    } else if (req == "ReverseOrientation") {
+      orientation_matches = !orientation_matches;
+      tok = lex.next();
+    } else if (req == "Orientation") {
+      tok = lex.next();
+      const bool left_handed_system = glm::determinant(ctm) > 0.0;  // the initial system is left-handed
+      if (tok.kind == RibToken::kString && tok.text == "outside") orientation_matches = true;
+      else if (tok.kind == RibToken::kString && tok.text == "inside") orientation_matches = false;
+      else if (tok.kind == RibToken::kString && tok.text == "lh") orientation_matches = left_handed_system;
+      else if (tok.kind == RibToken::kString && tok.text == "rh") orientation_matches = !left_handed_system;
+      else fail(name, line, "Orientation must be \"outside\", \"inside\", \"lh\" or \"rh\"");
+      tok = lex.next();
+    } else if (req == "ObjectBegin" || req == "ObjectInstance" || req == "MotionBegin" || req == "Skew" ||
+               req == "Perspective" || req == "CoordSysTransform" || req == "ReadArchive" || req == "Procedural") {
+      fail(name, line, req + " is not supported (it would place or add geometry this reader cannot follow)");
     } else if (req == "Basis") {
       tok = lex.next();
       if (tok.kind != RibToken::kString || tok.text != "bezier") fail(name, line, "only Basis \"bezier\" is supported");
@@ -307,9 +401,13 @@ Model parse_rib(const std::string& text, const std::string& name) {
       patch.points.resize(count);
       if (homogeneous) patch.weights.resize(count);
       const int side = degree + 1;
+      // du x dv of the stored patch points outside: reverse u where RenderMan flips the normal
+      // (orientation not matching the coordinate system) or the transform mirrors (determinant < 0).
+      const bool reverse_u = (glm::determinant(ctm) < 0.0) != !orientation_matches;
       for (int j = 0; j < side; ++j) {    // RIB varies u fastest
-        for (int i = 0; i < side; ++i) {
-          const size_t k = static_cast<size_t>(j * side + i);
+        for (int i0 = 0; i0 < side; ++i0) {
+          const int i = reverse_u ? degree - i0 : i0;
+          const size_t k = static_cast<size_t>(j * side + i0);
           const size_t arity = homogeneous ? 4 : 3;
           const double w = homogeneous ? v[k * arity + 3] : 1.0;
           if (!(w > 0.0)) fail(name, line, "Patch weight must be > 0");
@@ -335,7 +433,7 @@ Model parse_rib(const std::string& text, const std::string& name) {
   return model;
 }
 
-Model read_rib(const std::string& path) { return parse_rib(read_text_file(path), path); }
+Model read_rib(const std::string& path) { return parse_rib(read_text_input(path), path); }
 
 std::string file_extension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();

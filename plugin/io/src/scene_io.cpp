@@ -232,6 +232,7 @@ Scene parse_scene(const std::string& text, const std::string& name) {
   return scene;
 }
 
-Scene read_scene(const std::string& path) { return parse_scene(read_text_file(path), path); }
+// JSON may be minified onto one line: lines are not limited, NUL bytes (invalid JSON) are refused.
+Scene read_scene(const std::string& path) { return parse_scene(read_text_input(path, 0), path); }
 
 }  // namespace sagitta::io

@@ -44,6 +44,8 @@
 #include <TopoDS_Wire.hxx>
 
 #include <algorithm>
+#include <cctype>
+#include <string>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
@@ -404,8 +406,58 @@ CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name
   return cad;
 }
 
+namespace {
+
+// The ids ("#14") of the face entities of a STEP text: instances "#N = ADVANCED_FACE(" or
+// "#N = FACE_SURFACE(".
+std::vector<std::string> step_face_ids(const std::string& text) {
+  std::vector<std::string> ids;
+  auto blank = [&](size_t p) { return p < text.size() && std::isspace(static_cast<unsigned char>(text[p])); };
+  for (size_t pos = text.find('#'); pos != std::string::npos; pos = text.find('#', pos + 1)) {
+    size_t p = pos + 1;
+    while (p < text.size() && std::isdigit(static_cast<unsigned char>(text[p]))) ++p;
+    if (p == pos + 1) continue;
+    const std::string id = text.substr(pos, p - pos);
+    while (blank(p)) ++p;
+    if (p >= text.size() || text[p] != '=') continue;
+    ++p;
+    while (blank(p)) ++p;
+    for (const char* type : {"ADVANCED_FACE", "FACE_SURFACE"}) {
+      const size_t n = std::char_traits<char>::length(type);
+      size_t q = p + n;
+      while (blank(q)) ++q;
+      if (text.compare(p, n, type) == 0 && q < text.size() && text[q] == '(') ids.push_back(id);
+    }
+  }
+  return ids;
+}
+
+// OCCT's STEP reader drops a face it cannot build (a dangling or broken reference) without a
+// trace in the shape: every face entity of the file beyond the faces transferred is listed as
+// skipped, so that faces_tessellated + faces_trimmed + faces_skipped = faces = the file's faces.
+void list_dropped_step_faces(CadModel& cad, const std::string& text) {
+  const std::vector<std::string> ids = step_face_ids(text);
+  const size_t transferred = cad.faces.size();
+  for (size_t k = transferred; k < ids.size(); ++k) {
+    FaceReport r;
+    r.face_index = static_cast<int>(k);
+    r.name = "STEP face not transferred " + std::to_string(k - transferred + 1);
+    r.surface_type = "unknown";
+    r.status = "skipped";
+    r.reason = "OCCT's STEP reader dropped it (a broken or dangling reference): the file has " + std::to_string(ids.size()) +
+               " face entities, " + std::to_string(transferred) + " became faces";
+    cad.faces.push_back(r);
+    ++cad.faces_skipped;
+  }
+}
+
+}  // namespace
+
 CadModel read_cad_file(const std::string& path, const CadOptions& options) {
-  return cad_model_from_shape(read_cad_shape(path), path, options);
+  CadModel cad = cad_model_from_shape(read_cad_shape(path), path, options);
+  const std::string ext = io::file_extension(path);
+  if (ext == ".step" || ext == ".stp") list_dropped_step_faces(cad, io::read_text_file(path));
+  return cad;
 }
 
 CadModel read_brep_string(const std::string& brep_text, const std::string& name, const CadOptions& options) {

@@ -26,7 +26,14 @@ Tessellation read_mesh(const std::string& path);
 // The same from bytes already in memory; `ext` is ".obj", ".ply" or ".stl" (used by the fuzzers).
 Tessellation parse_mesh(const std::string& bytes, const std::string& name, const std::string& ext);
 
-// Writes `bytes` to `path` atomically (temp file + rename). Throws InputError on failure.
+// Writes `bytes` to `path` atomically (temp file + rename). Throws InputError on failure and then
+// leaves no temporary file. A new file gets mode 0666 minus the umask, a replaced one keeps its
+// mode. SIGINT, SIGTERM and SIGHUP remove the temporary files of writes in progress and then take
+// their default action (the handler is installed at the first write where the signal has its
+// default disposition; a program with its own handler should call remove_temp_files from it).
 void write_file_atomic(const std::string& path, const std::string& bytes);
+
+// Unlinks the temporary file of every write_file_atomic in progress. Async-signal-safe.
+void remove_temp_files() noexcept;
 
 }  // namespace sagitta::io

@@ -26,6 +26,17 @@ Model read_patch_model(const std::string& path);
 // Reads a whole file; throws InputError naming it when it cannot be read.
 std::string read_text_file(const std::string& path);
 
+// The longest line a text input may have (.bpt, .rib, .obj, ASCII PLY and STL): far beyond any
+// valid line (an OBJ n-gon of 5000 corners fits), small enough that junk is refused at once.
+constexpr size_t kMaxLineBytes = 65536;
+// The longest RIB token (a number, a name or a string).
+constexpr size_t kMaxRibToken = 4096;
+
+// Reads a text input file, refusing it with "FILE:LINE: problem" as soon as a NUL byte or (when
+// max_line > 0) a line longer than max_line bytes is read: /dev/zero or /dev/urandom given as an
+// input are refused after one 64 KiB chunk instead of filling memory.
+std::string read_text_input(const std::string& path, size_t max_line = kMaxLineBytes);
+
 // The file name's extension in lower case with its dot (".obj"), or "" when it has none.
 // Only the last path component counts: "dir.d/file" has none.
 std::string file_extension(const std::string& path);
