@@ -2,9 +2,11 @@
 #include "sagitta/fixtures.hpp"
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/io/model_io.hpp"
+#include "sagitta/io/scene_io.hpp"
 #include "sagitta/uniform.hpp"
 #include "test_support.hpp"
 
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
 #include <filesystem>
