@@ -66,7 +66,7 @@ void check_outputs(const std::vector<NamedPath>& outputs, const std::vector<std:
     if (path.empty()) continue;
     for (const std::string& input : inputs) {
       if (!input.empty() && input != "default" && same_file(path, input)) {
-        throw InputError(path + ": " + option + " names an input file (" + input + "); refusing to overwrite it");
+        throw InputError(path + ": " + option + " is the input file " + input + "; refusing to overwrite the input");
       }
     }
     for (size_t j = 0; j < k; ++j) {

@@ -46,18 +46,18 @@ cat > "$tmp/s/scene.json" <<'JSON'
  "tolerance_pixels": 1}
 JSON
 run scene "$tmp/s/scene.json" --json "$tmp/s/model.bpt"; rc=$?
-check "scene --json onto the scene's model: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'names an input file' $tmp/err && cmp -s $tmp/s/model.bpt $tmp/s/model.orig"
+check "scene --json onto the scene's model: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'refusing to overwrite the input' $tmp/err && cmp -s $tmp/s/model.bpt $tmp/s/model.orig"
 run scene "$tmp/s/scene.json" --out "$tmp/s/../s/./model.bpt.obj" --json "$tmp/s/model.bpt.obj"; rc=$?
 check "scene --out and --json the same file: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF -- '--out and --json name the same file' $tmp/err && [ ! -e $tmp/s/model.bpt.obj ]"
 run tessellate "$tmp/flat.bpt" --out "$tmp/a.obj" --stats "$tmp/./a.obj"; rc=$?
 check "tessellate --out a.obj --stats a.obj: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'name the same file' $tmp/err && [ ! -e $tmp/a.obj ]"
 ln -s "$tmp/flat.bpt" "$tmp/link.json"
 run tessellate "./$(realpath --relative-to=. "$tmp/flat.bpt")" --stats "$tmp/link.json"; rc=$?
-check "tessellate --stats through a symlink to the input: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'names an input file' $tmp/err"
+check "tessellate --stats through a symlink to the input: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'refusing to overwrite the input' $tmp/err"
 # `run` writes fixed names into --out-dir: an input that is one of them (here through a symlink) is refused.
 mkdir "$tmp/out"; cp "$tmp/flat.bpt" "$tmp/out/run.json"; ln -s "$tmp/out/run.json" "$tmp/in.bpt"
 run run "$tmp/in.bpt" --out-dir "$tmp/out" --no-report; rc=$?
-check "run: input is OUT_DIR/run.json: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'names an input file' $tmp/err && cmp -s $tmp/out/run.json $tmp/flat.bpt"
+check "run: input is OUT_DIR/run.json: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'refusing to overwrite the input' $tmp/err && cmp -s $tmp/out/run.json $tmp/flat.bpt"
 
 # --- item 10: signals and file modes --------------------------------------------------------------
 mkdir "$tmp/sig"
