@@ -17,7 +17,7 @@ printf '1\n1 1\n0 0 0\n0 1 0\n1 0 0\n1 1 0\n' > "$tmp/flat.bpt"
 # --- item 6: devices and junk as text inputs --------------------------------------------------
 ln -s /dev/zero "$tmp/zero.bpt"; ln -s /dev/urandom "$tmp/random.rib"; ln -s /dev/zero "$tmp/zero.obj"
 ln -s /dev/urandom "$tmp/random.json"; ln -s /dev/zero "$tmp/zero.ply"; ln -s /dev/zero "$tmp/zero.stl"
-run tessellate "$tmp/zero.bpt"; rc=$?
+run tessellate "$tmp/zero.bpt" --level 1; rc=$?
 check "/dev/zero as .bpt: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'zero.bpt:1: contains a NUL byte' $tmp/err"
 run validate "$tmp/random.rib"; rc=$?
 check "/dev/urandom as .rib: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qE 'random.rib:[0-9]+: contains a NUL byte' $tmp/err"
@@ -31,7 +31,7 @@ run scene "$tmp/random.json"; rc=$?
 check "/dev/urandom as a scene: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qE 'random.json:[0-9]+: contains a NUL byte' $tmp/err"
 # A line of 100000 bytes without a newline or NUL: refused by its length, not parsed.
 { echo 1; head -c 100000 /dev/zero | tr '\0' '1'; echo; } > "$tmp/long.bpt"
-run tessellate "$tmp/long.bpt"; rc=$?
+run tessellate "$tmp/long.bpt" --level 1; rc=$?
 check "over-long line: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'long.bpt:2: line longer than 65536 bytes' $tmp/err"
 # OBJ n-gons (fan) and negative (relative) indices per the OBJ spec: 3 + 1 triangles read.
 printf 'v 0 0 0\nv 0.5 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4 5\nv 0.5 0.5 0\nf -6 -4 -1\n' > "$tmp/ngon.obj"
@@ -49,10 +49,10 @@ run scene "$tmp/s/scene.json" --json "$tmp/s/model.bpt"; rc=$?
 check "scene --json onto the scene's model: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'refusing to overwrite the input' $tmp/err && cmp -s $tmp/s/model.bpt $tmp/s/model.orig"
 run scene "$tmp/s/scene.json" --out "$tmp/s/../s/./model.bpt.obj" --json "$tmp/s/model.bpt.obj"; rc=$?
 check "scene --out and --json the same file: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF -- '--out and --json name the same file' $tmp/err && [ ! -e $tmp/s/model.bpt.obj ]"
-run tessellate "$tmp/flat.bpt" --out "$tmp/a.obj" --stats "$tmp/./a.obj"; rc=$?
+run tessellate "$tmp/flat.bpt" --level 1 --out "$tmp/a.obj" --stats "$tmp/./a.obj"; rc=$?
 check "tessellate --out a.obj --stats a.obj: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'name the same file' $tmp/err && [ ! -e $tmp/a.obj ]"
 ln -s "$tmp/flat.bpt" "$tmp/link.json"
-run tessellate "./$(realpath --relative-to=. "$tmp/flat.bpt")" --stats "$tmp/link.json"; rc=$?
+run tessellate "./$(realpath --relative-to=. "$tmp/flat.bpt")" --level 1 --stats "$tmp/link.json"; rc=$?
 check "tessellate --stats through a symlink to the input: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'refusing to overwrite the input' $tmp/err"
 # `run` writes fixed names into --out-dir: an input that is one of them (here through a symlink) is refused.
 mkdir "$tmp/out"; cp "$tmp/flat.bpt" "$tmp/out/run.json"; ln -s "$tmp/out/run.json" "$tmp/in.bpt"
@@ -82,14 +82,14 @@ echo old > "$tmp/old.obj"; chmod 664 "$tmp/old.obj"
 check "a replaced output keeps its mode (0664)" "[ \$(stat -c %a $tmp/old.obj) = 664 ] && grep -q '^v ' $tmp/old.obj"
 patch='Patch "bilinear" "P" [0 0 0  1 0 0  0 1 0  1 1 0]'
 printf 'Scale 0 0 0\n%s\n' "$patch" > "$tmp/scale0.rib"
-run tessellate "$tmp/scale0.rib" --out "$tmp/scale0.obj"; rc=$?
+run tessellate "$tmp/scale0.rib" --level 1 --out "$tmp/scale0.obj"; rc=$?
 check "RIB Scale 0 0 0: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'scale0.rib:1: Scale by zero makes the transformation singular' $tmp/err && [ ! -e $tmp/scale0.obj ]"
 printf 'ConcatTransform [1 0 0 0  0 1 0 0  1 1 0 0  0 0 0 1]\n%s\n' "$patch" > "$tmp/flat3.rib"
-run tessellate "$tmp/flat3.rib"; rc=$?
+run tessellate "$tmp/flat3.rib" --level 1; rc=$?
 check "RIB singular ConcatTransform: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF 'flat3.rib:1: ConcatTransform matrix is singular' $tmp/err"
 for request in 'ObjectBegin 1' 'MotionBegin [0 1]' 'Skew 45 0 1 0 1 0 0'; do
   printf '%s\n%s\n' "$request" "$patch" > "$tmp/request.rib"
-  run tessellate "$tmp/request.rib"; rc=$?
+  run tessellate "$tmp/request.rib" --level 1; rc=$?
   check "RIB ${request%% *}: exit 2 (got $rc)" "[ $rc = 2 ] && one_line && grep -qF \"request.rib:1: ${request%% *} is not supported\" $tmp/err"
 done
 printf 'Translate 5 0 0\nTransform [2 0 0 0  0 2 0 0  0 0 2 0  0 0 1 1]\n%s\n' "$patch" > "$tmp/transform.rib"
