@@ -154,7 +154,8 @@ int patch_orientation(const Model& m) {
   for (const BezierPatch& p : m.patches) {
     const Vec3 du = (p.at(1, 0) + p.at(1, 1)) - (p.at(0, 0) + p.at(0, 1));
     const Vec3 dv = (p.at(0, 1) + p.at(1, 1)) - (p.at(0, 0) + p.at(1, 0));
-    const double d = glm::dot(glm::cross(du, dv), (p.at(0, 0) + p.at(1, 1)) * 0.5 - centre);
+    const double d = glm::dot(glm::cross(glm::normalize(du), glm::normalize(dv)),
+                              glm::normalize((p.at(0, 0) + p.at(1, 1)) * 0.5 - centre));
     out += d > 0.0;
     in += d < 0.0;
   }
@@ -172,6 +173,8 @@ TEST(Rib, OrientationFollowsRenderMan) {
   EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Orientation \"inside\""), "inside.rib")), -1);
   EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Orientation \"rh\""), "rh.rib")), -1);
   EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Scale 1 1 -1 Orientation \"rh\""), "mirrored_rh.rib")), 1);
+  // Tiny scales (determinant 1e-330, below the doubles) keep the sign of the determinant.
+  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Scale 1e-110 1e-110 -1e-110"), "tiny.rib")), 1);
   // ReverseOrientation is an attribute: AttributeEnd restores it, TransformEnd does not.
   EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("AttributeBegin ReverseOrientation AttributeEnd"), "a.rib")), 1);
   EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("TransformBegin ReverseOrientation TransformEnd"), "t.rib")), -1);

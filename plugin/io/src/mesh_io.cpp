@@ -4,17 +4,18 @@
 
 #include <glm/geometric.hpp>
 
+#include <atomic>
 #include <cctype>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <sstream>
-#include <atomic>
-#include <csignal>
 #include <mutex>
+#include <sstream>
 #include <pthread.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -37,13 +38,25 @@ void on_fatal_signal(int sig) {
   ::raise(sig);  // SA_RESETHAND restored the default action: it takes effect when the handler returns
 }
 
+// The process's umask: from /proc/self/status where Linux gives it (reading it there changes
+// nothing), else by setting and restoring it.
+mode_t read_umask() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("Umask:", 0) == 0) return static_cast<mode_t>(std::strtoul(line.c_str() + 6, nullptr, 8));
+  }
+  const mode_t mask = ::umask(0);
+  ::umask(mask);
+  return mask;
+}
+
 // Once per process: remembers the umask and installs the handler for SIGINT, SIGTERM and SIGHUP
 // where the disposition is still the default (an ignored signal or another handler is kept).
 void install_temp_cleanup() {
   static std::once_flag once;
   std::call_once(once, [] {
-    process_umask = ::umask(0);
-    ::umask(process_umask);
+    process_umask = read_umask();
     for (int sig : {SIGINT, SIGTERM, SIGHUP}) {
       struct sigaction old {};
       if (::sigaction(sig, nullptr, &old) != 0 || old.sa_handler != SIG_DFL || (old.sa_flags & SA_SIGINFO)) continue;

@@ -262,17 +262,28 @@ class RibLexer {
   size_t line_ = 1;
 };
 
-// True when a 4x4 matrix is singular up to rounding or not finite: with each column scaled to
-// length 1, |det| <= 1e-12 (it is at most 1 by Hadamard's bound). Scale-invariant per column.
-bool singular(const glm::dmat4& m) {
-  glm::dmat4 unit;
+// m with each column scaled to length 1: its determinant has the sign of m's and |det| <= 1
+// (Hadamard's bound), without under- or overflow. Returns false for a zero or non-finite column.
+bool unit_columns(const glm::dmat4& m, glm::dmat4& unit) {
   for (int c = 0; c < 4; ++c) {
     double largest = 0.0;  // scaled by its largest entry first, so the length cannot overflow
     for (int k = 0; k < 4; ++k) largest = std::max(largest, std::abs(m[c][k]));
-    if (!std::isfinite(largest) || !(largest > 0.0)) return true;
+    if (!std::isfinite(largest) || !(largest > 0.0)) return false;
     unit[c] = glm::normalize(m[c] / largest);
   }
-  return !(std::abs(glm::determinant(unit)) > 1e-12);
+  return true;
+}
+
+// True when a 4x4 matrix is singular up to rounding (|det| <= 1e-12 with unit columns) or not finite.
+bool singular(const glm::dmat4& m) {
+  glm::dmat4 unit;
+  return !unit_columns(m, unit) || !(std::abs(glm::determinant(unit)) > 1e-12);
+}
+
+// True when a regular matrix reverses handedness (negative determinant).
+bool mirrors(const glm::dmat4& m) {
+  glm::dmat4 unit;
+  return unit_columns(m, unit) && glm::determinant(unit) < 0.0;
 }
 
 }  // namespace
@@ -363,7 +374,7 @@ Model parse_rib(const std::string& text, const std::string& name) {
       tok = lex.next();
     } else if (req == "Orientation") {
       tok = lex.next();
-      const bool left_handed_system = glm::determinant(ctm) > 0.0;  // the initial system is left-handed
+      const bool left_handed_system = !mirrors(ctm);  // the initial system is left-handed
       if (tok.kind == RibToken::kString && tok.text == "outside") orientation_matches = true;
       else if (tok.kind == RibToken::kString && tok.text == "inside") orientation_matches = false;
       else if (tok.kind == RibToken::kString && tok.text == "lh") orientation_matches = left_handed_system;
@@ -403,7 +414,7 @@ Model parse_rib(const std::string& text, const std::string& name) {
       const int side = degree + 1;
       // du x dv of the stored patch points outside: reverse u where RenderMan flips the normal
       // (orientation not matching the coordinate system) or the transform mirrors (determinant < 0).
-      const bool reverse_u = (glm::determinant(ctm) < 0.0) != !orientation_matches;
+      const bool reverse_u = mirrors(ctm) != !orientation_matches;
       for (int j = 0; j < side; ++j) {    // RIB varies u fastest
         for (int i0 = 0; i0 < side; ++i0) {
           const int i = reverse_u ? degree - i0 : i0;
