@@ -181,5 +181,21 @@ TEST(HostileCertificate, NonFiniteMeshVertexIsNotCertified) {
   EXPECT_NE(r.not_certified_reason.find("not a finite number"), std::string::npos) << r.not_certified_reason;
 }
 
+// A foreign mesh (no (u, v)) whose far vertex (1, 0, 5) is used only by a zero-area triangle: that
+// triangle is left out of CGAL's Hausdorff distance, yet its points are mesh points. The upper bound
+// must cover them (found by the validate fuzz target: [4.12, 0.83] was certified before).
+TEST(HostileCertificate, ZeroAreaTriangleOfAForeignMeshIsCovered) {
+  const Model model = one_patch(bilinear(1.0, 1.0));
+  Tessellation mesh;
+  mesh.positions = {Vec3(0, 0, 0), Vec3(1, 0, 5), Vec3(0, 1, 0), Vec3(1, 1, 1)};
+  mesh.triangles = {{1, 1, 3}, {0, 3, 2}};
+  const DistanceReport r = certify_external(model, mesh);
+  EXPECT_TRUE(r.mesh_to_surface.certified) << r.not_certified_reason;
+  EXPECT_GT(r.mesh_to_surface.lower, 4.0);
+  EXPECT_LE(r.mesh_to_surface.lower, r.mesh_to_surface.upper);
+  // The true distance of (1, 0, 5) to z = uv over the unit square is at least 4 (|z| <= 1 there).
+  EXPECT_GE(r.mesh_to_surface.upper, 4.0);
+}
+
 }  // namespace
 }  // namespace sagitta

@@ -15,6 +15,8 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <chrono>
 #include <limits>
 #include <numeric>
@@ -35,10 +37,39 @@ SurfaceMesh to_surface_mesh(const Tessellation& mesh) {
   for (const Triangle& t : mesh.triangles) {
     const Vec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
     const K::Point_3 pa(a.x, a.y, a.z), pb(b.x, b.y, b.z), pc(c.x, c.y, c.z);
-    if (CGAL::collinear(pa, pb, pc)) continue;  // zero area: its points lie on other faces' edges or nowhere new
+    if (CGAL::collinear(pa, pb, pc)) continue;  // zero area: bounded apart (zero_area_to_reference)
     sm.add_face(sm.add_vertex(pa), sm.add_vertex(pb), sm.add_vertex(pc));
   }
   return sm;
+}
+
+// An upper bound of the distance from the points of the mesh's zero-area triangles (left out of the
+// CGAL meshes) to the reference R. Such a triangle is the segment between its two farthest corners;
+// the distance to R is 1-Lipschitz, so over a piece of length h it exceeds its value at the piece's
+// midpoint by at most h / 2. Pieces are at most 2 * resolution long (up to 4096 per triangle).
+double zero_area_to_reference(const Tessellation& mesh, const detail::MeshDistance& reference, double resolution) {
+  std::vector<std::array<Vec3, 2>> segments;
+  for (const Triangle& t : mesh.triangles) {
+    const Vec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+    if (!CGAL::collinear(K::Point_3(a.x, a.y, a.z), K::Point_3(b.x, b.y, b.z), K::Point_3(c.x, c.y, c.z))) continue;
+    std::array<Vec3, 2> s{a, b};
+    if (glm::length(c - a) > glm::length(s[1] - s[0])) s = {a, c};
+    if (glm::length(c - b) > glm::length(s[1] - s[0])) s = {b, c};
+    segments.push_back(s);
+  }
+  std::vector<double> worst(segments.size(), 0.0);
+  tbb::parallel_for(size_t(0), segments.size(), [&](size_t k) {
+    const Vec3 p = segments[k][0], q = segments[k][1];
+    const double length = glm::length(q - p);
+    const double wanted = resolution > 0.0 ? std::ceil(length / (2.0 * resolution)) : 1.0;
+    const int pieces = static_cast<int>(std::clamp(wanted, 1.0, 4096.0));
+    const double half = 0.5 * length / pieces * (1.0 + 8.0 * kUnit);
+    for (int i = 0; i < pieces; ++i) {
+      const Vec3 mid = p + ((i + 0.5) / pieces) * (q - p);
+      worst[k] = std::max(worst[k], reference.distance(mid) + reference.rounding_bound(mid) + half);
+    }
+  });
+  return segments.empty() ? 0.0 : *std::max_element(worst.begin(), worst.end());
 }
 
 DistanceReport certify_external_conditioned(const Model& model, const Tessellation& mesh, const ExternalOptions& options) {
@@ -60,7 +91,9 @@ DistanceReport certify_external_conditioned(const Model& model, const Tessellati
   const double h_mr = PMP::bounded_error_Hausdorff_distance<CGAL::Sequential_tag>(sm, sr, error_bound);
   const double h_rm = PMP::bounded_error_Hausdorff_distance<CGAL::Sequential_tag>(sr, sm, error_bound);
   const double rounding = 64.0 * kUnit * diag;
-  report.mesh_to_surface.upper = h_mr + error_bound + eps_m2s + rounding;
+  const detail::MeshDistance to_reference(reference), to_mesh(mesh);
+  const double h_zero_area = zero_area_to_reference(mesh, to_reference, error_bound);
+  report.mesh_to_surface.upper = std::max(h_mr, h_zero_area) + error_bound + eps_m2s + rounding;
   report.mesh_to_surface.certified = ref.mesh_to_surface.certified;
   report.surface_to_mesh.upper = h_rm + error_bound + eps_s2m + rounding;
   report.surface_to_mesh.certified = ref.surface_to_mesh.certified;
@@ -72,7 +105,6 @@ DistanceReport certify_external_conditioned(const Model& model, const Tessellati
 
   // Lower bounds. Mesh -> surface: the mesh points farthest from the reference (vertices, edge
   // midpoints, centroids), certified against the exact surface by branch-and-bound.
-  const detail::MeshDistance to_reference(reference), to_mesh(mesh);
   std::vector<Vec3> points;
   for (const Triangle& t : mesh.triangles) {
     const Vec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
