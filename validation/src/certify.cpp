@@ -2,6 +2,7 @@
 #include "sagitta/certify.hpp"
 
 #include "mesh_distance.hpp"
+#include "sagitta/budget.hpp"
 #include "sagitta/evaluate.hpp"
 
 #include <CGAL/box_intersection_d.h>
@@ -389,6 +390,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
   std::vector<Leaf> stack;
   stack.push_back({{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}, 0});
   while (!stack.empty()) {
+    budget::check("validation");
     const Leaf leaf = stack.back();
     stack.pop_back();
     ++res.leaves;
@@ -726,6 +728,7 @@ double certified_distance_lower(const Model& model, const Vec3& x, double target
   double result = target;
   int spent = 0;
   while (!stack.empty()) {
+    if ((spent & 255) == 0) budget::check("validation");
     Node node = std::move(stack.back());
     stack.pop_back();
     node.lb = node_lower(node, scale);
