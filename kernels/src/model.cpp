@@ -357,6 +357,7 @@ Topology build_topology(const Model& model, double near_miss_tolerance) {
 
   // Report unmatched sides that nearly coincide with another unmatched side, and near-collapsed sides.
   const NearMissIndex index = near_miss_sides(model, topo, near_miss_tolerance, &topo.near_miss_tolerance);
+  topo.near_miss_patch_fraction = near_miss_tolerance > 0.0 ? 0.0 : kNearMissPatchFraction;
   for (const OpenSide& s : index.sides) {
     if (s.extent < s.tol) topo.near_collapsed.push_back(s.ref);
   }

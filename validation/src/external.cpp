@@ -68,10 +68,10 @@ struct CountedPoints {
 };
 
 // Vertex reads allowed per Hausdorff distance: enough for meshes of millions of triangles that are
-// not pathological (measured: about 150 reads per triangle of the two meshes), a few hundred MB of
-// candidate queue at most.
+// not pathological (measured: 200 to 320 reads per triangle of the two meshes, teapot at levels 2
+// and 4); 402 overlapping triangles on a flat square stop at 20M reads, 1.5 s and 36 MB.
 constexpr uint64_t kHausdorffReadsPerTriangle = 2000;
-constexpr uint64_t kHausdorffMinReads = 200'000'000;
+constexpr uint64_t kHausdorffMinReads = 20'000'000;
 
 // One-sided bounded-error Hausdorff distance from a to b, or +infinity when it needed more work
 // than the limit (then nothing is claimed about it).

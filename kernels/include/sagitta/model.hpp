@@ -65,6 +65,7 @@ struct Topology {
   std::vector<Vec3> corner_position;     // per corner class
   std::vector<NearMiss> near_misses;     // sorted by (a, b); each pair once
   double near_miss_tolerance = 0.0;      // the model-wide tolerance used (see build_topology)
+  double near_miss_patch_fraction = 0.0; // and the fraction of a patch's size that caps it (0: none)
   std::vector<SideRef> near_collapsed;   // sides shorter than the tolerance but not exactly a point
 
   const SideInfo& side(uint32_t patch, Side s) const { return sides[patch * 4 + static_cast<int>(s)]; }
