@@ -50,15 +50,15 @@ namespace {
 // The estimate is a double: products of large counts (2 N^2 patches) must not wrap around.
 // `other_bytes`: what the run holds besides the mesh (a replicated model, its topology).
 void check_size(double estimate, const SchemeOptions& o, double other_bytes = 0.0) {
-  budget::check_memory(tessellation_bytes(estimate, estimate) + other_bytes,
-                       "this tessellation (" + std::to_string(static_cast<uint64_t>(std::min(estimate, 1e19))) + " triangles)",
-                       "lower the level or --copies, or raise --max-memory");
   if (estimate > static_cast<double>(o.max_triangles)) {
     std::ostringstream s;
     s << std::fixed << std::setprecision(0) << "this would make " << estimate << " triangles (about " << std::ceil(estimate * 64.0 / (1 << 30))
       << " GiB), more than --max-triangles " << o.max_triangles << "; lower the level or raise --max-triangles";
     throw InputError(s.str());
   }
+  budget::check_memory(tessellation_bytes(estimate, estimate) + other_bytes,
+                       "this tessellation (" + std::to_string(static_cast<uint64_t>(std::min(estimate, 1e19))) + " triangles)",
+                       "lower the level or --copies, or raise --max-memory");
 }
 
 }  // namespace
