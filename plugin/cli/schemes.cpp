@@ -76,8 +76,7 @@ double scheme_triangle_estimate(const Model& model, const SchemeOptions& o) {
   if (o.scheme == "esc" && o.level >= 0 && o.level <= kMaxEscLevel) return static_cast<double>(esc_full_triangle_count(model, o.level));
   if (o.scheme == "pn" && o.base_level >= 0) {
     const double n = segments_for_level(o.base_level);
-    const double k = std::ceil(std::max({1.0, static_cast<double>(o.level), o.tess_factor}));
-    return 2.0 * n * n * patches * k * k;
+    return 2.0 * n * n * patches;  // the base; its refinement is checked (with its pattern's limits) before it runs
   }
   return 2.0 * patches;  // every patch makes at least 2 triangles
 }

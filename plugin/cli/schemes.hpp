@@ -41,7 +41,7 @@ void add_scheme_options(CLI::App* command, SchemeOptions& options);
 void check_triangle_estimate(double estimate, const SchemeOptions& options, double other_bytes = 0.0);
 
 // Triangles the chosen scheme makes on the model at most (esc: its full pattern; pn on a patch
-// model: the base times the pattern), before running it.
+// model: the uniform base, whose refinement run_scheme checks before running it).
 double scheme_triangle_estimate(const Model& model, const SchemeOptions& options);
 
 // Runs the chosen scheme; fills `stats` with the scheme's parameters and counts (not timing).
