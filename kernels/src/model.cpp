@@ -18,6 +18,10 @@ void validate_model(const Model& model, const std::string& what) {
   for (size_t p = 0; p < model.patches.size(); ++p) validate_patch(model.patches[p], what + ": patch " + std::to_string(p));
 }
 
+void normalize_weights(Model& model) {
+  for (BezierPatch& patch : model.patches) normalize_weights(patch);
+}
+
 Box model_box(const Model& model) {
   Box box = control_box(model.patches.front());
   for (const BezierPatch& patch : model.patches) {

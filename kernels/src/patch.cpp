@@ -2,6 +2,7 @@
 
 #include <glm/geometric.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -26,11 +27,27 @@ void validate_patch(const BezierPatch& patch, const std::string& what) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
       fail("control point " + std::to_string(k) + " is not finite");
     }
+    const double magnitude = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+    if (magnitude > kMaxCoordinate) {
+      std::ostringstream s;
+      s << "control point " << k << " has a coordinate of magnitude " << magnitude << ", beyond the " << kMaxCoordinate
+        << " where derivatives and squared lengths overflow; scale the model";
+      fail(s.str());
+    }
   }
   for (size_t k = 0; k < patch.weights.size(); ++k) {
     const double w = patch.weights[k];
     if (!std::isfinite(w) || !(w > 0.0)) fail("weight " + std::to_string(k) + " is not a finite number > 0");
   }
+}
+
+void normalize_weights(BezierPatch& patch) {
+  if (!patch.rational()) return;
+  const double largest = *std::max_element(patch.weights.begin(), patch.weights.end());
+  if (!(largest > 0.0) || !std::isfinite(largest)) return;  // validate_patch reports such weights
+  const int e = std::ilogb(largest);
+  if (e == 0) return;
+  for (double& w : patch.weights) w = std::ldexp(w, -e);
 }
 
 const char* side_name(Side side) {

@@ -79,6 +79,7 @@ void run_peer_occt(const PeerCliOptions& o) {
   doc["certified"] = r.distance.hausdorff.certified;
   doc["coverage_ok"] = r.distance.coverage_ok;
   if (!r.distance.coverage_note.empty()) doc["coverage_note"] = r.distance.coverage_note;
+  if (!r.distance.not_certified_reason.empty()) doc["not_certified_reason"] = r.distance.not_certified_reason;
   doc["validate_seconds"] = r.validate_seconds;
   if (!r.trimmed.empty()) {
     // Trimmed faces, each measured against the face restricted to its trimmed domain (docs/CAD.md).

@@ -136,6 +136,7 @@ int run_validate(const ValidateOptions& o) {
   doc["certified"] = distance.hausdorff.certified;
   doc["coverage_ok"] = distance.coverage_ok;
   if (!distance.coverage_note.empty()) doc["coverage_note"] = distance.coverage_note;
+  if (!distance.not_certified_reason.empty()) doc["not_certified_reason"] = distance.not_certified_reason;
   doc["rounding_term"] = distance.rounding;
   doc["subtriangles"] = distance.leaves;
   doc["triangles_at_depth_budget"] = distance.budget_exhausted;
@@ -184,6 +185,7 @@ int run_validate(const ValidateOptions& o) {
             << ", cracks " << topo.crack_edges << "), T-junctions " << topo.t_junctions << ", non-manifold "
             << topo.non_manifold_edges << ", misoriented " << topo.inconsistent_orientation_edges << "; "
             << doc["seconds"].get<double>() << " s\n";
+  if (!distance.not_certified_reason.empty()) std::cout << "not certified: " << distance.not_certified_reason << "\n";
   for (const auto& f : failed) std::cerr << "sagitta validate: requirement failed: " << f.get<std::string>() << "\n";
   return failed.empty() ? 0 : kExitRequirementFailed;
 }

@@ -209,6 +209,7 @@ py::dict validate(const Model& model, const Tessellation& mesh, int max_depth, i
     doc["certified"] = distance.hausdorff.certified;
     doc["coverage_ok"] = distance.coverage_ok;
     if (!distance.coverage_note.empty()) doc["coverage_note"] = distance.coverage_note;
+    if (!distance.not_certified_reason.empty()) doc["not_certified_reason"] = distance.not_certified_reason;
     doc["rounding_term"] = distance.rounding;
     doc["subtriangles"] = distance.leaves;
     doc["triangles_at_depth_budget"] = distance.budget_exhausted;
@@ -308,6 +309,7 @@ PYBIND11_MODULE(_sagitta, m) {
                                                     weights, name + ": patch " + std::to_string(k)));
         }
         validate_model(model, name);
+        normalize_weights(model);
         return model;
       },
       py::arg("name"), py::arg("patches"),

@@ -1,6 +1,7 @@
 // Certified distance between a tessellation and its Bézier surfaces (see docs/VALIDATION.md).
 #include "sagitta/certify.hpp"
 
+#include "conditioning.hpp"
 #include "mesh_distance.hpp"
 #include "sagitta/budget.hpp"
 #include "sagitta/evaluate.hpp"
@@ -30,12 +31,29 @@ using H = std::array<double, 4>;
 constexpr double kUnit = std::numeric_limits<double>::epsilon() / 2;  // unit roundoff u = 2^-53
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+// |(x, y, z)| without spurious underflow or overflow in the squares: a vector far from unit size is
+// scaled by a power of two (exact) first, so the result is within a few units of rounding at any
+// magnitude (a plain sqrt of squares returns 0 for components below 1e-154, which would turn a
+// bound into a false certificate).
+double norm(double x, double y, double z) {
+  const double m = std::max({std::abs(x), std::abs(y), std::abs(z)});
+  if (m > 0x1p-500 && m < 0x1p500) return std::sqrt(x * x + y * y + z * z);
+  if (!(m > 0.0) || !std::isfinite(m)) return std::isnan(x + y + z) ? std::numeric_limits<double>::quiet_NaN() : m;
+  const int e = std::ilogb(m);
+  x = std::ldexp(x, -e);
+  y = std::ldexp(y, -e);
+  z = std::ldexp(z, -e);
+  return std::ldexp(std::sqrt(x * x + y * y + z * z), e);
+}
+double norm(const Vec3& v) { return norm(v.x, v.y, v.z); }
+double norm(const Vec2& v) { return glm::length(v); }
+
 H lerp(const H& a, const H& b, double t) {
   const double s = 1.0 - t;
   return {s * a[0] + t * b[0], s * a[1] + t * b[1], s * a[2] + t * b[2], s * a[3] + t * b[3]};
 }
 
-double norm3(const H& h) { return std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]); }
+double norm3(const H& h) { return norm(h[0], h[1], h[2]); }
 
 // Per patch data: homogeneous control points relative to a local origin and the magnitudes the
 // rounding bound needs.
@@ -62,7 +80,7 @@ PatchData make_patch_data(const BezierPatch& patch) {
       const double w = patch.weight(i, j);
       const Vec3 p = patch.at(i, j) - d.origin;
       d.h.push_back({w * p.x, w * p.y, w * p.z, w});
-      d.hmag = std::max(d.hmag, w * glm::length(p));
+      d.hmag = std::max(d.hmag, w * norm(p));
       d.wmin = std::min(d.wmin, w);
       d.wmax = std::max(d.wmax, w);
     }
@@ -70,7 +88,7 @@ PatchData make_patch_data(const BezierPatch& patch) {
   // dS/du = (N_u - (S - o) W_u) / W with N = sum w (P - o) B: |N_u| <= n max |Δ_u (w (P - o))|,
   // |W_u| <= n max |Δ_u w|, |S - o| <= max |P - o|.
   double rmax = 0.0;
-  for (const Vec3& p : patch.points) rmax = std::max(rmax, glm::length(p - d.origin));
+  for (const Vec3& p : patch.points) rmax = std::max(rmax, norm(p - d.origin));
   auto at = [&](int i, int j) { return d.h[static_cast<size_t>(i * (d.m + 1) + j)]; };
   double du = 0.0, dv = 0.0;
   for (int i = 0; i <= d.n; ++i) {
@@ -190,7 +208,7 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
   double xmag = 0.0;
   for (int l = 0; l < 3; ++l) {
     Xl[l] = X[l] - P.origin;
-    xmag = std::max(xmag, glm::length(Xl[l]));
+    xmag = std::max(xmag, norm(Xl[l]));
   }
   double emax = 0.0;
   if (!P.patch->rational()) {
@@ -199,7 +217,7 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
       const auto& al = s.tn.list[g];
       const Vec3 lin = (double(al[0]) * Xl[0] + double(al[1]) * Xl[1] + double(al[2]) * Xl[2]) / double(N);
       const Vec3 e(s.coef[g][0] - lin.x, s.coef[g][1] - lin.y, s.coef[g][2] - lin.z);
-      emax = std::max(emax, glm::length(e));
+      emax = std::max(emax, norm(e));
     }
     wmin_poly = 1.0;
   } else {
@@ -215,7 +233,7 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
         const H& c = s.coef[static_cast<size_t>(t1.at(h[0], h[1]))];
         e += (double(g[l]) / double(N + 1)) * (Vec3(c[0], c[1], c[2]) - c[3] * Xl[l]);
       }
-      emax = std::max(emax, glm::length(e));
+      emax = std::max(emax, norm(e));
     }
     if (!(wmin_poly > 0.0)) return kInf;
     emax /= wmin_poly;
@@ -225,7 +243,8 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
   // 8 (N + 4) is a margin of more than 2 over that count; see docs/VALIDATION.md.
   const double rounding = 8.0 * (N + 4) * kUnit * (P.hmag + P.wmax * xmag) / std::min(wmin_poly, P.wmin) +
                           4.0 * kUnit * P.lipschitz;
-  return emax * (1.0 + 4.0 * kUnit) + rounding;
+  const double bound = emax * (1.0 + 4.0 * kUnit) + rounding;
+  return bound >= 0.0 ? bound : kInf;  // NaN (an overflow on the way) proves nothing
 }
 
 // Damped Gauss-Newton projection of x onto the patch, seeded at q, clamped to the domain; a step is
@@ -242,7 +261,7 @@ Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
   for (Vec3& p : patch.points) p -= origin;
   const Vec3 x = x_in - origin;
   SurfacePointEval e = evaluate_with_derivatives(patch, q.x, q.y);
-  double best = glm::length(x - e.position);
+  double best = norm(x - e.position);
   for (int it = 0; it < 12; ++it) {
     const Vec3 r = x - e.position;
     const double a = glm::dot(e.du, e.du), b = glm::dot(e.du, e.dv), c = glm::dot(e.dv, e.dv);
@@ -250,7 +269,7 @@ Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
     if (!(det > 1e-300)) break;
     const double ru = glm::dot(e.du, r), rv = glm::dot(e.dv, r);
     Vec2 step((c * ru - b * rv) / det, (a * rv - b * ru) / det);
-    if (glm::length(step) < 1e-6) {
+    if (norm(step) < 1e-6) {
       // Near the solution the distance changes by O(|step|^2), below its own rounding, so the
       // descent test stalls at ~sqrt(u) in (u, v) and the result would depend on rounding (a
       // scaled model gave bounds 1e-9 apart). Here a plain Gauss-Newton step is kept while it
@@ -258,7 +277,7 @@ Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
       const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
       const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
       const Vec3 nr = x - ne.position;
-      if (glm::length(Vec2(glm::dot(ne.du, nr), glm::dot(ne.dv, nr))) >= glm::length(Vec2(ru, rv))) break;
+      if (norm(Vec2(glm::dot(ne.du, nr), glm::dot(ne.dv, nr))) >= norm(Vec2(ru, rv))) break;
       q = next;
       e = ne;
       continue;
@@ -267,7 +286,7 @@ Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
     for (int half = 0; half < 20 && !moved; ++half, step *= 0.5) {
       const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
       const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
-      const double d = glm::length(x - ne.position);
+      const double d = norm(x - ne.position);
       if (d < best) {
         best = d;
         q = next;
@@ -275,7 +294,7 @@ Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
         moved = true;
       }
     }
-    if (!moved || glm::length(step) < 1e-15) break;
+    if (!moved || norm(step) < 1e-15) break;
   }
   return q;
 }
@@ -288,13 +307,13 @@ Vec3 eval(const BezierPatch& patch, Vec2 q) {
 // Distance from x to an axis-aligned box (0 inside).
 double box_distance(const Box& box, const Vec3& x) {
   const Vec3 d = glm::max(glm::max(box.lo - x, x - box.hi), Vec3(0.0));
-  return glm::length(d);
+  return norm(d);
 }
 
 // Distance between two axis-aligned boxes (0 when they overlap).
 double box_distance(const Box& a, const Box& b) {
   const Vec3 d = glm::max(glm::max(a.lo - b.hi, b.lo - a.hi), Vec3(0.0));
-  return glm::length(d);
+  return norm(d);
 }
 
 // Projection of x onto a patch without a seed: the best point of a 5 x 5 parameter grid, then
@@ -305,7 +324,7 @@ Vec2 project_unseeded(const BezierPatch& patch, const Vec3& x) {
   for (int i = 0; i <= 4; ++i) {
     for (int j = 0; j <= 4; ++j) {
       const Vec2 q(i / 4.0, j / 4.0);
-      const double d = glm::length(x - eval(patch, q));
+      const double d = norm(x - eval(patch, q));
       if (d < best_d) {
         best_d = d;
         best = q;
@@ -341,7 +360,7 @@ Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
     // (Nearly) degenerate: the closest of the three edges' closest points.
     Vec3 best = closest_on_segment(p, a, b);
     for (const Vec3& q : {closest_on_segment(p, b, c), closest_on_segment(p, c, a)}) {
-      if (glm::length(q - p) < glm::length(best - p)) best = q;
+      if (norm(q - p) < norm(best - p)) best = q;
     }
     return best;
   }
@@ -410,7 +429,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
       double residual[3];
       for (int i = 0; i < 3; ++i) {
         qp[i] = project(*P.patch, X[i], q[i]);
-        residual[i] = glm::length(X[i] - eval(*P.patch, qp[i]));
+        residual[i] = norm(X[i] - eval(*P.patch, qp[i]));
       }
       if (!own_uv_only) m2s = std::min(lin, composed_bound(P, qp, X, s));
       if (m2s > tau && !others.empty()) {
@@ -423,7 +442,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
           Vec2 qo[3];
           for (int i = 0; i < 3; ++i) {
             qo[i] = i == 0 ? project_unseeded(*O.patch, X[i]) : project(*O.patch, X[i], qo[i - 1]);
-            residual[i] = std::min(residual[i], glm::length(X[i] - eval(*O.patch, qo[i])));
+            residual[i] = std::min(residual[i], norm(X[i] - eval(*O.patch, qo[i])));
           }
           m2s = std::min(m2s, composed_bound(O, qo, X, s));
         }
@@ -456,7 +475,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
         Vec3 Y[3];
         for (int i = 0; i < 3; ++i) {
           Y[i] = closest_on_triangle(sp[i], target[0], target[1], target[2]);
-          corner_distance[i] = std::min(corner_distance[i], glm::length(sp[i] - Y[i]));
+          corner_distance[i] = std::min(corner_distance[i], norm(sp[i] - Y[i]));
         }
         s2m = std::min(s2m, composed_bound(P, q, Y, s));
       }
@@ -655,12 +674,12 @@ double node_lower(const Node& node, double scale) {
     hi = glm::max(hi, pts[k]);
   }
   const Vec3 gap = glm::max(glm::max(lo, -hi), Vec3(0.0));
-  double lb = glm::length(gap);
+  double lb = norm(gap);
   const int n = node.n, m = node.m;
   const Vec3 p00 = pts[0], p0m = pts[static_cast<size_t>(m)], pn0 = pts[static_cast<size_t>(n * (m + 1))],
              pnm = pts.back();
   Vec3 normal = glm::cross(pnm - p00, pn0 - p0m);
-  const double len = glm::length(normal);
+  const double len = norm(normal);
   if (len > 0.0) {
     normal /= len;
     double smin = kInf, smax = -kInf;
@@ -707,8 +726,9 @@ double affine_error_bound(const BezierPatch& patch, const Vec2 q[3], const Vec3 
   return composed_bound(P, q, X, s);
 }
 
-double certified_distance_lower(const Model& model, const Vec3& x, double target, int node_budget) {
-  if (!(target > 0.0)) return 0.0;
+namespace {
+
+double certified_distance_lower_conditioned(const Model& model, const Vec3& x, double target, int node_budget) {
   std::vector<Node> stack;
   double scale = std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)});
   for (const BezierPatch& patch : model.patches) {
@@ -754,11 +774,11 @@ double certified_distance_lower(const Model& model, const Vec3& x, double target
         const Vec3 pa = Vec3(a[0], a[1], a[2]) / a[3];
         if (i < node.n) {
           const H& b = node.h[static_cast<size_t>((i + 1) * (node.m + 1) + j)];
-          lu = std::max(lu, glm::length(Vec3(b[0], b[1], b[2]) / b[3] - pa));
+          lu = std::max(lu, norm(Vec3(b[0], b[1], b[2]) / b[3] - pa));
         }
         if (j < node.m) {
           const H& b = node.h[static_cast<size_t>(i * (node.m + 1) + j + 1)];
-          lv = std::max(lv, glm::length(Vec3(b[0], b[1], b[2]) / b[3] - pa));
+          lv = std::max(lv, norm(Vec3(b[0], b[1], b[2]) / b[3] - pa));
         }
       }
     }
@@ -768,6 +788,15 @@ double certified_distance_lower(const Model& model, const Vec3& x, double target
     stack.push_back(std::move(right));
   }
   return std::min(result, target);
+}
+
+}  // namespace
+
+double certified_distance_lower(const Model& model, const Vec3& x, double target, int node_budget) {
+  if (!(target > 0.0)) return 0.0;
+  return detail::lower_with_safe_arithmetic(model, x, [&](const Model& m, const Vec3& y, double distance_scale) {
+    return certified_distance_lower_conditioned(m, y, target * distance_scale, node_budget);
+  });
 }
 
 namespace {
@@ -807,7 +836,7 @@ void certify_lowers(const Model& model, const Tessellation& mesh, const std::vec
       return;
     }
     const PatchData P = make_patch_data(patch);
-    const double eval_err = 4.0 * (P.n + P.m + 2) * kUnit * (P.hmag / P.wmin + glm::length(P.origin)) * P.wmax / P.wmin;
+    const double eval_err = 4.0 * (P.n + P.m + 2) * kUnit * (P.hmag / P.wmin + norm(P.origin)) * P.wmax / P.wmin;
     low[i] = std::max(0.0, dist.distance(p) - dist.rounding_bound(p) - eval_err);
   });
   for (size_t i = 0; i < k; ++i) {
@@ -821,16 +850,11 @@ void certify_lowers(const Model& model, const Tessellation& mesh, const std::vec
 
 }  // namespace
 
-DistanceReport certify_distance(const Model& model, const Tessellation& mesh, const CertifyOptions& options) {
+namespace {
+
+// certify_distance on a well-conditioned model and mesh (see conditioned()).
+DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh, const CertifyOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  if (!mesh.has_surface() || mesh.triangle_patch.size() != mesh.triangles.size() ||
-      mesh.triangle_uv.size() != mesh.triangles.size()) {
-    throw InputError("certify_distance: the mesh carries no per-triangle (patch, u, v); use certify_external");
-  }
-  for (uint32_t p : mesh.triangle_patch) {
-    if (p >= model.patches.size()) throw InputError("certify_distance: a triangle refers to patch " + std::to_string(p) +
-                                                    " but the model has " + std::to_string(model.patches.size()));
-  }
   DistanceReport report;
   report.triangle_upper.assign(mesh.triangles.size(), 0.0);
   if (mesh.triangles.empty()) {
@@ -859,7 +883,7 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
     for (const Vec3& b : bs) {
       const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
       const Vec2 q = project(patch, x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
-      const double e = glm::length(x - eval(patch, q));
+      const double e = norm(x - eval(patch, q));
       if (e >= est[t]) {
         est[t] = e;
         est_point[t] = x;
@@ -919,11 +943,11 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
         const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
         const BezierPatch& own = model.patches[mesh.triangle_patch[t]];
         const Vec2 q0 = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
-        double e = glm::length(x - eval(own, project(own, x, q0)));
+        double e = norm(x - eval(own, project(own, x, q0)));
         for (uint32_t c : near_patches[t]) {
           if (box_distance(patch_boxes[c], x) >= e) continue;
           const BezierPatch& other = model.patches[c];
-          e = std::min(e, glm::length(x - eval(other, project_unseeded(other, x))));
+          e = std::min(e, norm(x - eval(other, project_unseeded(other, x))));
         }
         if (e >= worst) {
           worst = e;
@@ -995,7 +1019,7 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
     const Vec2 q[3] = {Vec2(0.0), Vec2(0.0), Vec2(0.0)};
     const Vec3 X[3] = {T[0], T[1], T[2]};
     double xmag = 0.0;
-    for (const Vec3& x : X) xmag = std::max(xmag, glm::length(x - P.origin));
+    for (const Vec3& x : X) xmag = std::max(xmag, norm(x - P.origin));
     (void)q;
     report.rounding = 8.0 * (P.n + P.m + 1 + 4) * kUnit * (P.hmag + P.wmax * xmag) / P.wmin + 4.0 * kUnit * P.lipschitz;
   }
@@ -1019,6 +1043,22 @@ DistanceReport certify_distance(const Model& model, const Tessellation& mesh, co
   report.hausdorff.witness_patch = m2s_wins ? report.mesh_to_surface.witness_patch : report.surface_to_mesh.witness_patch;
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
+}
+
+}  // namespace
+
+DistanceReport certify_distance(const Model& model, const Tessellation& mesh, const CertifyOptions& options) {
+  if (!mesh.has_surface() || mesh.triangle_patch.size() != mesh.triangles.size() ||
+      mesh.triangle_uv.size() != mesh.triangles.size()) {
+    throw InputError("certify_distance: the mesh carries no per-triangle (patch, u, v); use certify_external");
+  }
+  for (uint32_t p : mesh.triangle_patch) {
+    if (p >= model.patches.size()) throw InputError("certify_distance: a triangle refers to patch " + std::to_string(p) +
+                                                    " but the model has " + std::to_string(model.patches.size()));
+  }
+  return detail::with_safe_arithmetic(model, mesh, [&](const Model& m, const Tessellation& t) {
+    return certify_conditioned(m, t, options);
+  });
 }
 
 }  // namespace sagitta

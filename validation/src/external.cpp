@@ -2,6 +2,7 @@
 // bounded-error Hausdorff distance between the meshes (see certify.hpp and docs/VALIDATION.md).
 #include "sagitta/certify.hpp"
 
+#include "conditioning.hpp"
 #include "mesh_distance.hpp"
 #include "sagitta/budget.hpp"
 #include "sagitta/evaluate.hpp"
@@ -88,11 +89,8 @@ double bounded_hausdorff(const SurfaceMesh& a, const SurfaceMesh& b, double erro
   }
 }
 
-}  // namespace
-
-DistanceReport certify_external(const Model& model, const Tessellation& mesh, const ExternalOptions& options) {
+DistanceReport certify_external_conditioned(const Model& model, const Tessellation& mesh, const ExternalOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  if (mesh.triangles.empty()) throw InputError("validate: the mesh has no triangles");
   DistanceReport report;
   // Reference: uniform tessellation with its own certified interval.
   const Topology topology = build_topology(model);
@@ -116,10 +114,11 @@ DistanceReport certify_external(const Model& model, const Tessellation& mesh, co
   report.surface_to_mesh.certified = ref.surface_to_mesh.certified && std::isfinite(h_rm);
   report.coverage_ok = ref.coverage_ok;
   report.coverage_note = ref.coverage_note;
+  report.not_certified_reason = ref.not_certified_reason;
   if (!std::isfinite(h_mr) || !std::isfinite(h_rm)) {
-    report.coverage_note += std::string(report.coverage_note.empty() ? "" : "; ") +
-                            "not certified: the mesh Hausdorff distance needed more work than its limit "
-                            "(overlapping or degenerate faces?)";
+    report.not_certified_reason += std::string(report.not_certified_reason.empty() ? "" : "; ") +
+                                   "the mesh Hausdorff distance needed more work than its limit (overlapping or "
+                                   "degenerate faces?)";
   }
   report.rounding = rounding;
   report.leaves = ref.leaves;
@@ -180,6 +179,15 @@ DistanceReport certify_external(const Model& model, const Tessellation& mesh, co
   report.hausdorff.witness_patch = m2s_wins ? -1 : report.surface_to_mesh.witness_patch;
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
+}
+
+}  // namespace
+
+DistanceReport certify_external(const Model& model, const Tessellation& mesh, const ExternalOptions& options) {
+  if (mesh.triangles.empty()) throw InputError("validate: the mesh has no triangles");
+  return detail::with_safe_arithmetic(model, mesh, [&](const Model& m, const Tessellation& t) {
+    return certify_external_conditioned(m, t, options);
+  });
 }
 
 }  // namespace sagitta

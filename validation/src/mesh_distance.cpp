@@ -1,5 +1,6 @@
 #include "mesh_distance.hpp"
 
+#include <CGAL/AABB_segment_primitive.h>
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
 #include <CGAL/AABB_triangle_primitive.h>
@@ -7,8 +8,11 @@
 
 #include <glm/geometric.hpp>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <tuple>
 #include <vector>
 
 namespace sagitta::detail {
@@ -16,17 +20,29 @@ namespace sagitta::detail {
 namespace {
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using CTriangle = K::Triangle_3;
-using Iterator = std::vector<CTriangle>::const_iterator;
-using Primitive = CGAL::AABB_triangle_primitive<K, Iterator>;
-using Traits = CGAL::AABB_traits<K, Primitive>;
-using Tree = CGAL::AABB_tree<Traits>;
+using CSegment = K::Segment_3;
+using TriangleTree =
+    CGAL::AABB_tree<CGAL::AABB_traits<K, CGAL::AABB_triangle_primitive<K, std::vector<CTriangle>::const_iterator>>>;
+using SegmentTree =
+    CGAL::AABB_tree<CGAL::AABB_traits<K, CGAL::AABB_segment_primitive<K, std::vector<CSegment>::const_iterator>>>;
 constexpr double kUnit = std::numeric_limits<double>::epsilon() / 2;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+double length_between(const Vec3& a, const Vec3& b) { return glm::length(a - b); }
+Vec3 to_vec(const K::Point_3& p) { return Vec3(p.x(), p.y(), p.z()); }
 }  // namespace
 
+// Triangles of positive area go into a triangle tree. A zero-area triangle is still part of the
+// mesh: it is the segment between its two farthest corners (kept in a segment tree), or a point.
 struct MeshDistance::Impl {
   std::vector<CTriangle> triangles;
   std::vector<int64_t> index;  // mesh triangle of each CGAL triangle
-  Tree tree;
+  TriangleTree tree;
+  std::vector<CSegment> segments;
+  std::vector<int64_t> segment_index;
+  SegmentTree segment_tree;
+  std::vector<Vec3> points;  // triangles collapsed to one point (duplicates removed)
+  std::vector<int64_t> point_index;
   double scale = 0.0;  // largest absolute coordinate of the mesh
 };
 
@@ -36,38 +52,90 @@ MeshDistance::MeshDistance(const Tessellation& mesh) : impl_(std::make_unique<Im
     return K::Point_3(p.x, p.y, p.z);
   };
   impl_->triangles.reserve(mesh.triangles.size());
+  std::vector<std::pair<std::tuple<double, double, double>, int64_t>> points;
   for (const Triangle& t : mesh.triangles) {
+    const int64_t id = static_cast<int64_t>(&t - mesh.triangles.data());
     const CTriangle tri(P(t[0]), P(t[1]), P(t[2]));
-    if (tri.is_degenerate()) continue;  // zero area: its points lie on its edges, shared or reported
-    impl_->triangles.push_back(tri);
-    impl_->index.push_back(static_cast<int64_t>(&t - mesh.triangles.data()));
+    if (!tri.is_degenerate()) {
+      impl_->triangles.push_back(tri);
+      impl_->index.push_back(id);
+      continue;
+    }
+    const Vec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+    std::array<std::pair<Vec3, Vec3>, 3> pairs = {{{a, b}, {b, c}, {c, a}}};
+    const auto longest = *std::max_element(pairs.begin(), pairs.end(), [](const auto& x, const auto& y) {
+      return length_between(x.first, x.second) < length_between(y.first, y.second);
+    });
+    if (longest.first != longest.second) {
+      impl_->segments.emplace_back(K::Point_3(longest.first.x, longest.first.y, longest.first.z),
+                                   K::Point_3(longest.second.x, longest.second.y, longest.second.z));
+      impl_->segment_index.push_back(id);
+    } else {
+      points.push_back({{a.x, a.y, a.z}, id});
+    }
+  }
+  std::sort(points.begin(), points.end());
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (i > 0 && points[i].first == points[i - 1].first) continue;
+    const auto& [x, y, z] = points[i].first;
+    impl_->points.emplace_back(x, y, z);
+    impl_->point_index.push_back(points[i].second);
   }
   for (const Vec3& p : mesh.positions) {
     impl_->scale = std::max({impl_->scale, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
   }
-  if (impl_->triangles.empty()) return;
-  impl_->tree.insert(impl_->triangles.cbegin(), impl_->triangles.cend());
-  impl_->tree.build();
-  impl_->tree.accelerate_distance_queries();
+  if (!impl_->triangles.empty()) {
+    impl_->tree.insert(impl_->triangles.cbegin(), impl_->triangles.cend());
+    impl_->tree.build();
+    impl_->tree.accelerate_distance_queries();
+  }
+  if (!impl_->segments.empty()) {
+    impl_->segment_tree.insert(impl_->segments.cbegin(), impl_->segments.cend());
+    impl_->segment_tree.build();
+    impl_->segment_tree.accelerate_distance_queries();
+  }
 }
 
 MeshDistance::~MeshDistance() = default;
 
-bool MeshDistance::empty() const { return impl_->triangles.empty(); }
+bool MeshDistance::empty() const { return impl_->triangles.empty() && impl_->segments.empty() && impl_->points.empty(); }
+
+namespace {
+struct Hit {
+  double distance = kInf;
+  Vec3 closest{0.0};
+  int64_t triangle = -1;
+};
+}  // namespace
+
+// The nearest of the three kinds of primitives; the point list is scanned (it holds only triangles
+// collapsed to a point, after removing duplicates).
+static Hit nearest(const MeshDistance::Impl& m, const Vec3& p) {
+  Hit best;
+  const K::Point_3 q(p.x, p.y, p.z);
+  if (!m.triangles.empty()) {
+    const auto hit = m.tree.closest_point_and_primitive(q);
+    best = {length_between(to_vec(hit.first), p), to_vec(hit.first), m.index[static_cast<size_t>(hit.second - m.triangles.cbegin())]};
+  }
+  if (!m.segments.empty()) {
+    const auto hit = m.segment_tree.closest_point_and_primitive(q);
+    const double d = length_between(to_vec(hit.first), p);
+    if (d < best.distance) best = {d, to_vec(hit.first), m.segment_index[static_cast<size_t>(hit.second - m.segments.cbegin())]};
+  }
+  for (size_t i = 0; i < m.points.size(); ++i) {
+    const double d = length_between(m.points[i], p);
+    if (d < best.distance) best = {d, m.points[i], m.point_index[i]};
+  }
+  return best;
+}
 
 double MeshDistance::distance(const Vec3& p, Vec3* closest) const {
-  if (empty()) return std::numeric_limits<double>::infinity();
-  const K::Point_3 q(p.x, p.y, p.z);
-  const K::Point_3 c = impl_->tree.closest_point(q);
-  if (closest) *closest = Vec3(c.x(), c.y(), c.z());
-  return glm::length(Vec3(c.x(), c.y(), c.z()) - p);
+  const Hit hit = nearest(*impl_, p);
+  if (closest) *closest = hit.closest;
+  return hit.distance;
 }
 
-int64_t MeshDistance::closest_triangle(const Vec3& p) const {
-  if (empty()) return -1;
-  const auto hit = impl_->tree.closest_point_and_primitive(K::Point_3(p.x, p.y, p.z));
-  return impl_->index[static_cast<size_t>(hit.second - impl_->triangles.cbegin())];
-}
+int64_t MeshDistance::closest_triangle(const Vec3& p) const { return nearest(*impl_, p).triangle; }
 
 double MeshDistance::rounding_bound(const Vec3& p) const {
   // The closest point is a projection onto a plane or a segment computed in double; its error is a

@@ -1,5 +1,7 @@
-// Internal: distance from points to a triangle mesh through a CGAL AABB tree (CGAL stays in
-// mesh_distance.cpp). Queries are thread-safe after construction.
+// Internal: distance from points to a triangle mesh through CGAL AABB trees (this header is
+// CGAL-free; CGAL is used in mesh_distance.cpp). Zero-area triangles count as the segment or point
+// they are, so a mesh of degenerate triangles (a patch collapsed to a line) has a distance too.
+// Queries are thread-safe after construction.
 #pragma once
 
 #include "sagitta/tessellation.hpp"
@@ -24,8 +26,9 @@ class MeshDistance {
   int64_t closest_triangle(const Vec3& p) const;
   bool empty() const;
 
- private:
   struct Impl;
+
+ private:
   std::unique_ptr<Impl> impl_;
 };
 

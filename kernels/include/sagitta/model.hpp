@@ -17,6 +17,10 @@ struct Model {
 // Throws InputError unless the model has at least one patch and every patch is well formed.
 void validate_model(const Model& model, const std::string& what);
 
+// normalize_weights on every patch: the same surfaces, weights in a safe range. Readers call it
+// after validate_model on every model they return.
+void normalize_weights(Model& model);
+
 // `copies` translated instances of the model laid out on a square grid with a gap between them
 // (the papers' "5 cups", "100 cups" scenes). copies == 1 returns the model unchanged.
 Model replicate(const Model& model, int copies);

@@ -39,9 +39,20 @@ struct BezierPatch {
   double weight(int i, int j) const { return weights.empty() ? 1.0 : weights[static_cast<size_t>(i * cols() + j)]; }
 };
 
+// Largest coordinate magnitude a patch may have: beyond it the derivatives (up to 50 times the
+// coordinates) and their cross products (the normals) overflow double.
+inline constexpr double kMaxCoordinate = 1e150;
+
 // Throws InputError naming `what` unless the patch is well formed: degrees in 1..25, the right number
-// of points (and weights, if any), all coordinates finite, all weights finite and > 0.
+// of points (and weights, if any), all coordinates finite and within +-kMaxCoordinate, all weights
+// finite and > 0.
 void validate_patch(const BezierPatch& patch, const std::string& what);
+
+// Scales a rational patch's weights by a power of two so the largest lies in [1, 2). The surface is
+// exactly the same (a common factor of the weights cancels, and a power of two rounds nothing), and
+// evaluation stays clear of under- and overflow for weights like 1e-300 or 1e300. Every reader
+// applies it (through normalize_weights(Model&)).
+void normalize_weights(BezierPatch& patch);
 
 // The four sides of a patch's parameter square. A side's boundary curve is read in increasing
 // parameter order: kU0/kU1 are rows i = 0 / i = degree_u (parameter v runs along them),

@@ -146,6 +146,7 @@ Model parse_bpt(const std::string& text, const std::string& name) {
   }
   if (lines.next(f)) fail(name, lines.number, "unexpected content after the last of " + std::to_string(count) + " patches");
   validate_model(model, name);
+  normalize_weights(model);
   return model;
 }
 
@@ -332,6 +333,7 @@ Model parse_rib(const std::string& text, const std::string& name) {
   if (!stack.empty()) fail(name, tok.line, std::to_string(stack.size()) + " TransformBegin/AttributeBegin without End");
   if (model.patches.empty()) fail(name, tok.line, "the file has no Patch requests: the model is empty");
   validate_model(model, name);
+  normalize_weights(model);
   return model;
 }
 

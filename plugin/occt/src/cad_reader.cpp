@@ -353,6 +353,7 @@ CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name
           for (size_t i = 0; i < patches.size() && r.reason.empty(); ++i) {
             try {
               validate_patch(patches[i], name + " " + r.name);
+              normalize_weights(patches[i]);
             } catch (const InputError& e) {
               r.reason = e.what();
             }

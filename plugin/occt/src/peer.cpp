@@ -217,10 +217,17 @@ PeerResult peer_mesh_model(const Model& model, const PeerOptions& options) {
     for (const TopoDS_Face& f : faces) sewing.Add(f);
     sewing.Perform();
     const TopoDS_Shape sewn = sewing.SewedShape();
+    // Sewing drops faces it finds degenerate (a patch collapsed to a point or a line); OCCT has
+    // nothing to mesh then.
+    if (sewn.IsNull()) throw InputError(model.name + ": OCCT's sewing removed every patch (degenerate geometry)");
     run_mesher(sewn, options, r);
     MeshCollector collector;
     for (size_t p = 0; p < faces.size(); ++p) {
       const TopoDS_Shape& s = sewing.IsModified(faces[p]) ? sewing.Modified(faces[p]) : faces[p];
+      if (s.IsNull()) {  // removed by the sewing as degenerate: no mesh from OCCT
+        ++r.faces_without_mesh;
+        continue;
+      }
       if (s.ShapeType() != TopAbs_FACE) throw InputError(model.name + ": sewing did not keep patch " + std::to_string(p) + " a face");
       const long n = collector.add_face(TopoDS::Face(s), static_cast<int>(p), &model, r.max_node_offset);
       if (n < 0) {

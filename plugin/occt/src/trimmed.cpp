@@ -352,9 +352,7 @@ TrimmedFacePeer measure_trimmed_face(const TopoDS_Face& face, const FaceReport& 
                                          : "not all triangles inside the domain, or areas differ");
     out.reasons.push_back(std::string(buf) + ": face->mesh upper bound not certified");
   }
-  d.hausdorff.lower = std::max(d.mesh_to_surface.lower, d.surface_to_mesh.lower);
-  d.hausdorff.upper = std::max(d.mesh_to_surface.upper, d.surface_to_mesh.upper);
-  d.hausdorff.certified = d.mesh_to_surface.certified && d.surface_to_mesh.certified;
+  check_distance_report(d);
   return out;
 }
 

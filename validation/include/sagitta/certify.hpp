@@ -2,6 +2,10 @@
 //
 // Every interval [lower, upper] returned here satisfies lower <= true distance <= upper, with
 // floating-point rounding accounted for by an explicit additive term (see docs/VALIDATION.md).
+// Models far from unit size (coordinates like 1e110 or 1e-300, weights like 1e-200) are rescaled
+// by exact powers of two first; where that cannot make the arithmetic safe, the upper bounds are
+// not certified and DistanceReport::not_certified_reason says why. lower <= upper and the absence
+// of NaN are checked before any report is returned.
 // A bound that could not be certified (for example surface->mesh when the triangles' (u, v) do not
 // cover a patch's domain) has certified == false and upper = +infinity.
 #pragma once
@@ -58,6 +62,10 @@ struct DistanceReport {
   std::vector<double> triangle_upper;  // per triangle: max of both directions' bounds over it
   bool coverage_ok = false;            // every patch's domain is covered by the triangles' (u, v)
   std::string coverage_note;           // why coverage failed, when it did
+  // Why no upper bound is certified although the mesh covers the surface: the arithmetic cannot
+  // guarantee one (weights or coordinates beyond what an exact rescaling brings into range, a
+  // non-finite vertex) or a final consistency check failed. Empty otherwise.
+  std::string not_certified_reason;
   // With CertifyOptions::in_domain: max over the triangles of the surface->mesh bound of the surface
   // points above the triangle's (u, v); +infinity otherwise.
   double surface_to_mesh_over_triangles = std::numeric_limits<double>::infinity();
@@ -67,6 +75,12 @@ struct DistanceReport {
   uint64_t budget_exhausted = 0;       // triangles still above the target at max_depth
   double seconds = 0.0;
 };
+
+// The last check before a report is shown: no NaN anywhere, lower >= 0, and an upper bound that is
+// not finite or lies below its own lower bound is withdrawn (certified = false, upper = +infinity,
+// the reason in not_certified_reason). The Hausdorff interval is recomputed from the two directions.
+// certify_distance and certify_external apply it; a caller that edits a report applies it again.
+void check_distance_report(DistanceReport& report);
 
 // Certified distance for a tessellation that carries triangle_patch and triangle_uv (our schemes).
 // Upper bounds: per triangle, the Bernstein coefficients of S(phi(b)) - X(b) over sub-triangles,
