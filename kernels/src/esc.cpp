@@ -327,6 +327,14 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
     }
 
     auto inserted = [&](int a, int b) { return mask[static_cast<size_t>(lat.index(a, b))] != 0; };
+    // True when lattice point (a, b) lies on a side of the patch collapsed to a point: its vertex id
+    // is the collapse vertex, whether or not the point was inserted.
+    bool collapsed[4];
+    for (Side side : kAllSides) collapsed[static_cast<int>(side)] = topology.side(pid, side).collapsed;
+    auto on_collapsed_side = [&](int a, int b) {
+      return (a == 0 && collapsed[static_cast<int>(Side::kU0)]) || (a == na && collapsed[static_cast<int>(Side::kU1)]) ||
+             (b == 0 && collapsed[static_cast<int>(Side::kV0)]) || (b == mb && collapsed[static_cast<int>(Side::kV1)]);
+    };
     std::vector<Node>& upper = sc.upper;
     std::vector<Node>& lower = sc.lower;
     std::vector<uint32_t>& strip = sc.strip;
@@ -336,13 +344,17 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
           // Row k of the pattern with the paper's substitutions: a missing end vertex is replaced by
           // a virtual vertex, the nearest inserted vertex on the same coarse edge (ties: the lower
           // row); missing base candidates are left out (their neighbours on the base connect).
+          // On a coarse edge lying on a collapsed side every point is the collapse vertex, so the
+          // end point is kept at its own lattice point: a VV taken from the apex or the far corner
+          // would be the same vertex at another lattice point, and the zipper, placing it there,
+          // fanned one triangle from it in two strips (the same triangle twice, issue 20).
           auto build_row = [&](int k, std::vector<Node>& row) {
             row.clear();
             for (int c = 0; c <= k; ++c) {
               int a, b;
               row_point(P, tri, i, j, k, c, a, b);
               const double pos = k == 0 ? 0.0 : static_cast<double>(c) / k;
-              if (!inserted(a, b)) {
+              if (!inserted(a, b) && !on_collapsed_side(a, b)) {
                 if (c != 0 && c != k) continue;  // only base-row candidates can be missing here
                 const bool left = c == 0;
                 for (int d = 1; d <= P; ++d) {
@@ -392,6 +404,13 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
                 if (orient(lower[di], upper[ui], chosen) <= 0 && orient(lower[di], upper[ui], other) > 0) {
                   advance_upper = !advance_upper;
                 }
+              }
+              // Both rows at the collapse vertex (distinct lattice points, one id): step along the lower
+              // row first. The vertex then fans over this strip's lower row only; fanning it over the
+              // upper row would repeat, in 3D, the triangles the strip above fans over that row.
+              if (lower[di].id == upper[ui].id && (lower[di].a != upper[ui].a || lower[di].b != upper[ui].b) &&
+                  di + 1 < lower.size()) {
+                advance_upper = false;
               }
               const Node& d = lower[di];
               const Node& u = upper[ui];

@@ -46,7 +46,7 @@ void normalize_weights(BezierPatch& patch) {
   const double largest = *std::max_element(patch.weights.begin(), patch.weights.end());
   if (!(largest > 0.0) || !std::isfinite(largest)) return;  // validate_patch reports such weights
   const int e = std::ilogb(largest);
-  if (e == 0) return;
+  if (std::abs(e) <= kWeightExponentLimit) return;  // ordinary weights stay exactly as given
   for (double& w : patch.weights) w = std::ldexp(w, -e);
 }
 

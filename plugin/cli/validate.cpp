@@ -65,6 +65,17 @@ nlohmann::json topology_report_json(const TopologyReport& t) {
   j["inconsistent_orientation_edges"] = t.inconsistent_orientation_edges;
   j["degenerate_triangles"] = t.degenerate_triangles;
   j["duplicated_faces"] = t.duplicated_faces;
+  j["components"] = t.components;
+  j["closed_components"] = t.closed_components;
+  j["inside_out_components"] = t.inside_out_components;
+  nlohmann::json comps = nlohmann::json::array();
+  for (const MeshComponent& c : t.component_list) {
+    comps.push_back({{"triangles", c.triangles}, {"first_triangle", c.first_triangle}, {"patch", c.patch},
+                     {"box", {vec_json(c.box_min), vec_json(c.box_max)}}, {"closed", c.closed},
+                     {"signed_volume", c.closed ? nlohmann::json(c.signed_volume) : nlohmann::json(nullptr)},
+                     {"inside_out", c.inside_out}});
+  }
+  j["component_list"] = comps;
   j["watertight"] = t.watertight();
   j["open_edges_classified_by"] = t.classified_with_uv ? "patch (u, v)" : "distance to the model's free boundary curves";
   nlohmann::json list = nlohmann::json::array();
@@ -188,7 +199,9 @@ int run_validate(const ValidateOptions& o) {
             << distance.surface_to_mesh.lower << ", " << distance.surface_to_mesh.upper << "]; " << mesh.triangles.size()
             << " triangles; open edges " << topo.open_edges << " (model boundary " << topo.model_boundary_edges
             << ", cracks " << topo.crack_edges << "), T-junctions " << topo.t_junctions << ", non-manifold "
-            << topo.non_manifold_edges << ", misoriented " << topo.inconsistent_orientation_edges << "; "
+            << topo.non_manifold_edges << ", misoriented " << topo.inconsistent_orientation_edges << ", duplicated faces "
+            << topo.duplicated_faces << "; components " << topo.components << " (closed " << topo.closed_components
+            << ", inside-out " << topo.inside_out_components << "); "
             << doc["seconds"].get<double>() << " s\n";
   if (!distance.not_certified_reason.empty()) std::cout << "not certified: " << distance.not_certified_reason << "\n";
   for (const auto& f : failed) std::cerr << "sagitta validate: requirement failed: " << f.get<std::string>() << "\n";

@@ -5,6 +5,7 @@
 #include "sagitta/evaluate.hpp"
 #include "sagitta/fixtures.hpp"
 #include "sagitta/io/model_io.hpp"
+#include "sagitta/mesh_check.hpp"
 #include "sagitta/uniform.hpp"
 #include "test_support.hpp"
 
@@ -454,6 +455,72 @@ TEST(Esc, CollapsedSidesCountDegenerateTriangles) {
     EXPECT_EQ(normalise(expand_strips(mesh)), normalise(mesh.triangles));
     for (const Triangle& t : mesh.triangles) EXPECT_TRUE(t[0] != t[1] && t[1] != t[2] && t[0] != t[2]);
   }
+}
+
+// Issue 20 item 9: next to a side collapsed to a point, a virtual vertex on the collapsed coarse
+// edge is the collapse point, and two strips of one coarse triangle fanned the same triangle from it
+// (seen on v = 0 and v = 1, never on u = 0 or u = 1). Random bicubic patches with each side
+// collapsed, several levels and thresholds: no triangle twice, none degenerate, and the mesh is a
+// disc (consistently oriented, manifold, Euler characteristic 1, open edges only on the free sides).
+TEST(Esc, CollapsedSideNeverDuplicatesATriangle) {
+  // Each side alone and both opposite pairs (a spindle). Two adjacent sides collapsed to their
+  // common corner are not covered: see docs/ESC.md.
+  const std::vector<std::vector<Side>> cases = {{Side::kU0}, {Side::kU1}, {Side::kV0}, {Side::kV1},
+                                                {Side::kU0, Side::kU1}, {Side::kV0, Side::kV1}};
+  size_t meshes = 0;
+  for (uint64_t seed = 1; seed <= 12; ++seed) {
+    for (const std::vector<Side>& sides : cases) {
+      BezierPatch patch = fixtures::random_patch(3, 3, seed);
+      for (Side side : sides) {
+        const int i0 = side == Side::kU1 ? 3 : 0, j0 = side == Side::kV1 ? 3 : 0;
+        for (int k = 0; k <= 3; ++k) {
+          const bool along_v = side == Side::kU0 || side == Side::kU1;
+          patch.at(along_v ? i0 : k, along_v ? k : j0) = patch.at(i0, j0);
+        }
+      }
+      Model model;
+      model.patches = {patch};
+      const Topology topology = build_topology(model);
+      ASSERT_EQ(topology.collapsed_sides(), sides.size());
+      const double d = model_box(model).diagonal();
+      for (int level : {1, 2, 3, 4, 5, 7}) {
+        for (double f : {0.0, 0.003, 0.01, 0.03, 0.06, 0.1, 0.15, 0.2, 0.3}) {
+          EscParams params;
+          params.level = level;
+          params.threshold = f * d;
+          params.surface_data = true;
+          const Tessellation mesh = tessellate_esc(model, topology, params);
+          const std::string what = "seed " + std::to_string(seed) + " sides " + std::to_string(static_cast<int>(sides[0])) +
+                                   (sides.size() > 1 ? "," + std::to_string(static_cast<int>(sides[1])) : "") +
+                                    " L=" + std::to_string(level) + " rho=" + std::to_string(f) + "*diag";
+          std::set<std::array<uint32_t, 3>> faces;
+          for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+            std::array<uint32_t, 3> key = mesh.triangles[t];
+            std::sort(key.begin(), key.end());
+            EXPECT_TRUE(faces.insert(key).second) << what << ": triangle " << t << " repeats";
+            const Triangle& tri = mesh.triangles[t];
+            const Vec3 n = glm::cross(mesh.positions[tri[1]] - mesh.positions[tri[0]],
+                                      mesh.positions[tri[2]] - mesh.positions[tri[0]]);
+            EXPECT_GT(glm::length(n), 0.0) << what << ": triangle " << t << " degenerate";
+            EXPECT_GT(cross2(mesh.triangle_uv[t][0], mesh.triangle_uv[t][1], mesh.triangle_uv[t][2]), 0.0) << what;
+          }
+          const test::MeshCounts c = test::count_topology(mesh);
+          EXPECT_EQ(c.nonmanifold_edges, 0u) << what;
+          EXPECT_EQ(c.misoriented_edges, 0u) << what;
+          EXPECT_EQ(c.euler(), 1) << what;
+          EXPECT_EQ(normalise(expand_strips(mesh)), normalise(mesh.triangles)) << what;
+          const TopologyReport report = check_mesh_topology(mesh, &model, &topology);
+          EXPECT_EQ(report.non_manifold_edges, 0u) << what;
+          EXPECT_EQ(report.duplicated_faces, 0u) << what;
+          EXPECT_EQ(report.degenerate_triangles, 0u) << what;
+          EXPECT_EQ(report.crack_edges, 0u) << what;
+          EXPECT_EQ(report.inconsistent_orientation_edges, 0u) << what;
+          ++meshes;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(meshes, 12u * 6u * 6u * 9u);
 }
 
 TEST(Esc, SameOutputForAnyThreadCount) {

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <filesystem>
 #include <fstream>
 
@@ -41,6 +43,20 @@ TEST(Bpt, RationalPointsCarryWeights) {
   const Model m = io::parse_bpt("1\n1 1\n0 0 0 1\n0 1 0 2\n1 0 0 0.5\n1 1 0 1\n", "w.bpt");
   ASSERT_TRUE(m.patches[0].rational());
   EXPECT_EQ(m.patches[0].weight(0, 1), 2.0);
+}
+
+// Weights far outside 2^+-100 are rescaled by a power of two (the same surface); ratios are exact.
+TEST(Bpt, ExtremeWeightsAreRescaledExactly) {
+  for (const char* w : {"1e-300", "1e300", "1e-200"}) {
+    const std::string text = std::string("1\n1 1\n0 0 0 ") + w + "\n0 1 0 " + w + "\n1 0 0 " + w + "\n1 1 1 " + w + "\n";
+    const Model m = io::parse_bpt(text, "w.bpt");
+    ASSERT_TRUE(m.patches[0].rational());
+    const double w0 = m.patches[0].weight(0, 0);
+    EXPECT_GE(w0, 1.0) << w;
+    EXPECT_LT(w0, 2.0) << w;
+    EXPECT_EQ(w0, std::ldexp(std::stod(w), -std::ilogb(std::stod(w)))) << w;
+    EXPECT_EQ(m.patches[0].weight(1, 1), w0);
+  }
 }
 
 struct BadInput {

@@ -183,6 +183,105 @@ TEST(MeshCheck, PlantedDefectsInObjFiles) {
   std::filesystem::remove_all(dir);
 }
 
+// The cube [-1, 1]^3 as 6 bilinear patches, du x dv pointing outwards: enclosed volume exactly 8.
+Model bilinear_cube() {
+  struct Face {
+    int fixed_axis, fixed_value, u_axis, v_axis;
+  };
+  const Face faces[] = {{0, 1, 1, 2}, {0, 0, 2, 1}, {1, 1, 2, 0}, {1, 0, 0, 2}, {2, 1, 0, 1}, {2, 0, 1, 0}};
+  Model model;
+  for (const Face& f : faces) {
+    BezierPatch patch;
+    patch.degree_u = patch.degree_v = 1;
+    for (int a = 0; a <= 1; ++a) {
+      for (int b = 0; b <= 1; ++b) {
+        double c[3];
+        c[f.fixed_axis] = 2.0 * f.fixed_value - 1.0;
+        c[f.u_axis] = 2.0 * a - 1.0;
+        c[f.v_axis] = 2.0 * b - 1.0;
+        patch.points.push_back(Vec3(c[0], c[1], c[2]));
+      }
+    }
+    model.patches.push_back(std::move(patch));
+  }
+  return model;
+}
+
+// x -> -x on the patches [first, last) (a determinant -1 placement), patch order and (u, v) unchanged.
+Model mirrored(Model model, size_t first, size_t last) {
+  for (size_t p = first; p < last; ++p) {
+    for (Vec3& q : model.patches[p].points) q.x = -q.x;
+  }
+  return model;
+}
+
+TopologyReport topology_of(const Model& model, int segments) {
+  const Topology topo = build_topology(model);
+  return check_mesh_topology(uniform(model, segments), &model, &topo);
+}
+
+// Issue 20 item 9: a mirrored part is inside-out and used to go unreported.
+TEST(MeshCheck, SignedVolumeOfClosedComponents) {
+  const TopologyReport cube = topology_of(bilinear_cube(), 3);
+  ASSERT_EQ(cube.components, 1u);
+  ASSERT_EQ(cube.component_list.size(), 1u);
+  EXPECT_TRUE(cube.component_list[0].closed);
+  EXPECT_NEAR(cube.component_list[0].signed_volume, 8.0, 1e-12);
+  EXPECT_EQ(cube.inside_out_components, 0u);
+  EXPECT_EQ(find(cube, "inside_out_component"), nullptr);
+
+  const TopologyReport flipped = topology_of(mirrored(bilinear_cube(), 0, 6), 3);
+  ASSERT_EQ(flipped.component_list.size(), 1u);
+  EXPECT_TRUE(flipped.component_list[0].closed);
+  EXPECT_NEAR(flipped.component_list[0].signed_volume, -8.0, 1e-12);
+  EXPECT_TRUE(flipped.component_list[0].inside_out);
+  EXPECT_EQ(flipped.inside_out_components, 1u);
+  ASSERT_NE(find(flipped, "inside_out_component"), nullptr);
+  // The mirror image is consistently oriented within itself: only the volume tells.
+  EXPECT_EQ(flipped.inconsistent_orientation_edges, 0u);
+  EXPECT_TRUE(flipped.watertight());
+}
+
+TEST(MeshCheck, MirroredComponentReportedSeparately) {
+  // Default model: the pillow box (patches 0..5) and the torus (6..21), two closed components.
+  const Model model = fixtures::default_model();
+  const TopologyReport plain = topology_of(model, 16);
+  ASSERT_EQ(plain.components, 2u);
+  EXPECT_EQ(plain.closed_components, 2u);
+  EXPECT_EQ(plain.inside_out_components, 0u);
+  ASSERT_EQ(plain.component_list.size(), 2u);
+  const MeshComponent& box = plain.component_list[0];
+  const MeshComponent& torus = plain.component_list[1];
+  EXPECT_GT(box.signed_volume, 8.0);  // the cube [-1, 1]^3 bulged outwards
+  EXPECT_NEAR(torus.signed_volume, 2.0 * M_PI * M_PI * 2.0 * 0.5 * 0.5, 0.01 * 9.87);  // 2 pi^2 R r^2
+  EXPECT_EQ(box.patch, 0);
+  EXPECT_EQ(torus.patch, 6);
+
+  // Only the torus mirrored: it alone is inside-out, with the opposite volume.
+  const TopologyReport one = topology_of(mirrored(model, 6, model.patches.size()), 16);
+  ASSERT_EQ(one.component_list.size(), 2u);
+  EXPECT_EQ(one.inside_out_components, 1u);
+  EXPECT_FALSE(one.component_list[0].inside_out);
+  EXPECT_NEAR(one.component_list[0].signed_volume, box.signed_volume, 1e-9 * box.signed_volume);
+  EXPECT_TRUE(one.component_list[1].inside_out);
+  EXPECT_NEAR(one.component_list[1].signed_volume, -torus.signed_volume, 1e-9 * torus.signed_volume);
+  const TopologyFinding* f = find(one, "inside_out_component");
+  ASSERT_NE(f, nullptr);
+  EXPECT_EQ(f->patch, 6);
+  EXPECT_LT(f->position.x, 0.0);  // the mirrored torus sits around x = -5
+}
+
+TEST(MeshCheck, OpenComponentHasNoVolume) {
+  Model model;
+  model.patches = {fixtures::random_patch(3, 3, 4)};
+  const TopologyReport r = topology_of(model, 4);
+  ASSERT_EQ(r.component_list.size(), 1u);
+  EXPECT_FALSE(r.component_list[0].closed);
+  EXPECT_EQ(r.component_list[0].signed_volume, 0.0);
+  EXPECT_EQ(r.closed_components, 0u);
+  EXPECT_EQ(r.inside_out_components, 0u);
+}
+
 TEST(MeshCheck, TeapotFreeBoundaryIsModelBoundary) {
   const std::string path = test::shared_data("teapot.bpt");
   SAGITTA_REQUIRE_DATA(path);

@@ -279,6 +279,72 @@ TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model,
     }
     r.t_junctions = junctions.size();
   }
+
+  // Components through shared vertices (union-find), closedness from the edge uses, and the signed
+  // volume of each closed one: the sum over its triangles of det(p0 - c, p1 - c, p2 - c) / 6 with c
+  // the component's box centre (the divergence theorem; c only reduces cancellation).
+  std::vector<uint32_t> parent(mesh.positions.size());
+  for (uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
+  auto find = [&](uint32_t v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  for (const Triangle& t : mesh.triangles) {
+    for (int k = 1; k < 3; ++k) {
+      const uint32_t a = find(t[0]), b = find(t[k]);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  }
+  std::unordered_map<uint32_t, size_t> component_of_root;
+  std::vector<MeshComponent> comps;
+  std::vector<size_t> tri_component(mesh.triangles.size());
+  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    const Triangle& t = mesh.triangles[i];
+    const auto [it, fresh] = component_of_root.emplace(find(t[0]), comps.size());
+    if (fresh) {
+      MeshComponent c;
+      c.first_triangle = static_cast<int64_t>(i);
+      c.patch = patch_of(i);
+      c.box_min = c.box_max = mesh.positions[t[0]];
+      c.closed = true;
+      comps.push_back(c);
+    }
+    tri_component[i] = it->second;
+    MeshComponent& c = comps[it->second];
+    ++c.triangles;
+    for (uint32_t v : t) {
+      c.box_min = glm::min(c.box_min, mesh.positions[v]);
+      c.box_max = glm::max(c.box_max, mesh.positions[v]);
+    }
+  }
+  for (const auto& [key, e] : edges) {
+    if (e.count != 2 || e.forward != 1) comps[tri_component[e.triangle]].closed = false;
+  }
+  std::vector<double> magnitude(comps.size(), 0.0);
+  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    MeshComponent& c = comps[tri_component[i]];
+    if (!c.closed) continue;
+    const Vec3 centre = 0.5 * (c.box_min + c.box_max);
+    const Triangle& t = mesh.triangles[i];
+    const double six_v = glm::dot(mesh.positions[t[0]] - centre,
+                                  glm::cross(mesh.positions[t[1]] - centre, mesh.positions[t[2]] - centre));
+    c.signed_volume += six_v / 6.0;
+    magnitude[tri_component[i]] += std::abs(six_v) / 6.0;
+  }
+  for (size_t k = 0; k < comps.size(); ++k) {
+    MeshComponent& c = comps[k];
+    // Negative beyond the rounding of the sum: a flat closed shell (volume ~0) is not flagged.
+    c.inside_out = c.closed && c.signed_volume < -1e-9 * magnitude[k];
+    r.closed_components += c.closed;
+    if (c.inside_out) {
+      ++r.inside_out_components;
+      add({"inside_out_component", 0.5 * (c.box_min + c.box_max), c.patch, c.first_triangle, {-1, -1}});
+    }
+  }
+  r.components = comps.size();
+  std::stable_partition(comps.begin(), comps.end(), [](const MeshComponent& c) { return c.closed; });
+  if (comps.size() > options.max_listed_components) comps.resize(options.max_listed_components);
+  r.component_list = std::move(comps);
   return r;
 }
 

@@ -48,10 +48,15 @@ inline constexpr double kMaxCoordinate = 1e150;
 // finite and > 0.
 void validate_patch(const BezierPatch& patch, const std::string& what);
 
-// Scales a rational patch's weights by a power of two so the largest lies in [1, 2). The surface is
-// exactly the same (a common factor of the weights cancels, and a power of two rounds nothing), and
-// evaluation stays clear of under- and overflow for weights like 1e-300 or 1e300. Every reader
-// applies it (through normalize_weights(Model&)).
+// Weights whose largest lies within 2^-kWeightExponentLimit .. 2^kWeightExponentLimit are left as
+// they are by normalize_weights.
+inline constexpr int kWeightExponentLimit = 100;
+
+// Scales a rational patch's weights by a power of two so the largest lies in [1, 2) when it lies
+// outside 2^+-kWeightExponentLimit (weights like 1e-300 or 1e300; others are not touched). The
+// surface is exactly the same (a common factor of the weights cancels, and a power of two rounds
+// nothing), and evaluation stays clear of under- and overflow. Every reader applies it (through
+// normalize_weights(Model&)).
 void normalize_weights(BezierPatch& patch);
 
 // The four sides of a patch's parameter square. A side's boundary curve is read in increasing
