@@ -1,5 +1,6 @@
 #include "sagitta/esc.hpp"
 
+#include "sagitta/budget.hpp"
 #include "sagitta/boundary.hpp"
 #include "sagitta/evaluate.hpp"
 
@@ -195,6 +196,7 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
   };
   tbb::enumerable_thread_specific<Scratch> scratch;
   tbb::parallel_for(size_t{0}, np, [&](size_t p) {
+    budget::check("the ESC tessellation");
     const BezierPatch& patch = model.patches[p];
     const uint32_t pid = static_cast<uint32_t>(p);
     const double rho = patch_rho(p);
@@ -485,6 +487,8 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
   used = vertex_base[np];
   if (used > UINT32_MAX) throw InputError("the tessellation needs more than 2^32 vertices; lower the level");
   const uint64_t triangles = tri_offset[np], strips = strip_offset[np];
+  budget::check_memory(tessellation_bytes(2.0 * double(triangles), double(used)), "the ESC tessellation",
+                       "lower the level or raise --max-memory");
   result.positions.resize(used);
   if (params.normals) result.normals.resize(used);
   if (params.surface_data) result.surface_points.resize(used);

@@ -1,12 +1,15 @@
 #include "sagitta/model.hpp"
 
+#include "sagitta/budget.hpp"
+
 #include <glm/geometric.hpp>
 
 #include <algorithm>
 #include <cmath>
-#include <map>
+#include <cstring>
 #include <numeric>
 #include <tuple>
+#include <unordered_map>
 
 namespace sagitta {
 
@@ -29,9 +32,31 @@ Box model_box(const Model& model) {
   return box;
 }
 
+double model_bytes(size_t patches, int du, int dv, bool rational) {
+  const double points = double(du + 1) * double(dv + 1);
+  constexpr double kHeapBlock = 32.0;  // allocator overhead per vector buffer
+  return double(patches) * (sizeof(BezierPatch) + points * sizeof(Vec3) + kHeapBlock +
+                            (rational ? points * sizeof(double) + kHeapBlock : 0.0));
+}
+
+double topology_bytes(size_t patches, int degree) {
+  // Per side: its SideInfo; a map node with its key (d + 1 points and weights) and, per edge, the
+  // Edge with its point, weight and use vectors; the forward and backward keys while matching.
+  const double d1 = double(degree + 1);
+  const double per_side = sizeof(Topology::SideInfo) + 96.0 + d1 * 4 * sizeof(double) +
+                          sizeof(Topology::Edge) + 4 * 32.0 + d1 * (sizeof(Vec3) + sizeof(double)) + 16.0;
+  // Per corner: union-find parent, class, class of root, position.
+  const double per_corner = sizeof(uint32_t) * 2 + sizeof(int64_t) + sizeof(Vec3);
+  return double(patches) * 4.0 * (per_side + per_corner);
+}
+
 Model replicate(const Model& model, int copies) {
   if (copies < 1) throw InputError("--copies must be >= 1, got " + std::to_string(copies));
   if (copies == 1) return model;
+  int du = 1, dv = 1;
+  for (const BezierPatch& p : model.patches) du = std::max(du, p.degree_u), dv = std::max(dv, p.degree_v);
+  budget::check_memory(model_bytes(model.patches.size() * static_cast<size_t>(copies), du, dv, true),
+                       std::to_string(copies) + " copies of the model", "lower --copies or raise --max-memory");
   const Box box = model_box(model);
   const Vec3 size = box.hi - box.lo;
   const double gap = 0.25 * std::max({size.x, size.y, size.z, 1e-300});
@@ -79,6 +104,31 @@ namespace {
 // A boundary curve's control polygon with weights, as an exact key.
 using CurveKey = std::vector<std::array<double, 4>>;
 
+// splitmix64's finaliser: every input bit affects every output bit.
+uint64_t mix64(uint64_t x) {
+  x ^= x >> 30;
+  x *= 0xBF58476D1CE4E5B9ull;
+  x ^= x >> 27;
+  x *= 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+// Hash of a key consistent with its == (which takes -0.0 == 0.0: both hash as +0.0).
+struct CurveKeyHash {
+  size_t operator()(const CurveKey& key) const {
+    uint64_t h = key.size();
+    for (const std::array<double, 4>& q : key) {
+      for (double x : q) {
+        const double positive_zero = x + 0.0;
+        uint64_t bits;
+        std::memcpy(&bits, &positive_zero, sizeof bits);
+        h = mix64(h ^ bits);
+      }
+    }
+    return static_cast<size_t>(h);
+  }
+};
+
 CurveKey side_key(const BezierPatch& patch, Side side, bool reversed) {
   const int d = side_degree(patch, side);
   CurveKey key(static_cast<size_t>(d + 1));
@@ -119,16 +169,141 @@ double polygon_distance(const BezierPatch& a, Side sa, const BezierPatch& b, Sid
   return worst;
 }
 
+// An unmatched side for the near-miss search: its tolerance, the midpoint of its end points and
+// the grid level whose cells (2^level wide) are at least as wide as the tolerance.
+struct OpenSide {
+  SideRef ref;
+  Vec3 mid{0.0};
+  double extent = 0.0;  // largest distance of a control point from the first one
+  double tol = 0.0;     // this side's near-miss tolerance
+  int level = 0;
+};
+
+struct NearMissIndex {
+  std::vector<OpenSide> sides;
+};
+
+// The unmatched sides with their tolerances: `absolute` when > 0, else the smaller of
+// kNearMissModelFraction of the model's box diagonal and kNearMissPatchFraction of the side's
+// patch's control-box diagonal (so copies spread far apart, or many small disjoint patches, do not
+// make everything "near"). Stores the model-wide tolerance in `model_tol`.
+NearMissIndex near_miss_sides(const Model& model, const Topology& topo, double absolute, double* model_tol) {
+  const double model_wide = absolute > 0.0 ? absolute : kNearMissModelFraction * model_box(model).diagonal();
+  *model_tol = model_wide;
+  NearMissIndex index;
+  for (const Topology::Edge& e : topo.edges) {
+    if (e.uses.size() != 1) continue;
+    const SideRef ref = e.uses.front();
+    const BezierPatch& patch = model.patches[ref.patch];
+    OpenSide s;
+    s.ref = ref;
+    const int d = side_degree(patch, ref.side);
+    const Vec3 first = side_point(patch, ref.side, 0);
+    s.mid = 0.5 * (first + side_point(patch, ref.side, d));
+    for (int k = 1; k <= d; ++k) s.extent = std::max(s.extent, glm::length(side_point(patch, ref.side, k) - first));
+    s.tol = absolute > 0.0 ? absolute : std::min(model_wide, kNearMissPatchFraction * control_box(patch).diagonal());
+    if (!(s.tol > 0.0) || !std::isfinite(s.tol)) s.tol = 0.0;
+    std::frexp(s.tol, &s.level);  // tol < 2^level
+    index.sides.push_back(s);
+  }
+  return index;
+}
+
+// Grid cell of a point at a level (cells 2^level wide); clamped so that huge coordinates share a cell
+// (more candidates, never a missed one).
+std::array<int64_t, 3> grid_cell(const Vec3& p, int level) {
+  std::array<int64_t, 3> c{};
+  for (int k = 0; k < 3; ++k) {
+    const double x = std::floor(std::ldexp(p[k], -level));
+    c[static_cast<size_t>(k)] = static_cast<int64_t>(std::clamp(std::isnan(x) ? 0.0 : x, -4e18, 4e18));
+  }
+  return c;
+}
+
+struct CellKey {
+  int level;
+  std::array<int64_t, 3> cell;
+  bool operator==(const CellKey& o) const { return level == o.level && cell == o.cell; }
+};
+struct CellHash {
+  size_t operator()(const CellKey& k) const {
+    uint64_t h = mix64(static_cast<uint64_t>(k.level));
+    for (int64_t c : k.cell) h = mix64(h ^ static_cast<uint64_t>(c));
+    return static_cast<size_t>(h);
+  }
+};
+
+// Pairs of unmatched sides of equal degree whose control polygons (either direction) lie within
+// the smaller of the two tolerances, found with a multi-level hash grid: a pair within tolerance has
+// midpoints within it too, so each side looks only in the few cells its midpoint +- that distance
+// meets, on each level not above its own. Linear in the sides for models of
+// similar-sized patches.
+std::vector<Topology::NearMiss> find_near_misses(const Model& model, const NearMissIndex& index) {
+  const std::vector<OpenSide>& sides = index.sides;
+  std::unordered_map<CellKey, std::vector<uint32_t>, CellHash> grid;
+  std::vector<int> levels;
+  for (uint32_t i = 0; i < sides.size(); ++i) {
+    if (sides[i].tol <= 0.0) continue;
+    grid[{sides[i].level, grid_cell(sides[i].mid, sides[i].level)}].push_back(i);
+    levels.push_back(sides[i].level);
+  }
+  std::sort(levels.begin(), levels.end());
+  levels.erase(std::unique(levels.begin(), levels.end()), levels.end());
+  std::vector<Topology::NearMiss> out;
+  for (uint32_t a = 0; a < sides.size(); ++a) {
+    const OpenSide& sa = sides[a];
+    if (sa.tol <= 0.0) continue;
+    if ((a & 1023u) == 0) budget::check("the near-miss search");
+    const BezierPatch& pa = model.patches[sa.ref.patch];
+    for (int level : levels) {
+      if (level > sa.level) break;
+      // Partners on this level are closer than min(tol_a, 2^level): only the cells that box meets.
+      const Vec3 reach(std::min(sa.tol, std::ldexp(1.0, level)));
+      const std::array<int64_t, 3> lo = grid_cell(sa.mid - reach, level), hi = grid_cell(sa.mid + reach, level);
+      for (int64_t x = lo[0]; x <= hi[0]; ++x) {
+        for (int64_t y = lo[1]; y <= hi[1]; ++y) {
+          for (int64_t z = lo[2]; z <= hi[2]; ++z) {
+            const auto it = grid.find({level, {x, y, z}});
+            if (it == grid.end()) continue;
+            for (uint32_t b : it->second) {
+              const OpenSide& sb = sides[b];
+              if (sb.level == sa.level && b <= a) continue;  // each pair once, from the lower index
+              const double tol = std::min(sa.tol, sb.tol);
+              if (!(glm::length(sa.mid - sb.mid) < tol)) continue;
+              const BezierPatch& pb = model.patches[sb.ref.patch];
+              if (side_degree(pa, sa.ref.side) != side_degree(pb, sb.ref.side)) continue;
+              const double d = std::min(polygon_distance(pa, sa.ref.side, pb, sb.ref.side, false),
+                                        polygon_distance(pa, sa.ref.side, pb, sb.ref.side, true));
+              if (d < tol) out.push_back(a < b ? Topology::NearMiss{sa.ref, sb.ref, d} : Topology::NearMiss{sb.ref, sa.ref, d});
+            }
+          }
+        }
+      }
+    }
+  }
+  auto key = [](const Topology::NearMiss& m) {
+    return std::make_tuple(m.a.patch, static_cast<int>(m.a.side), m.b.patch, static_cast<int>(m.b.side));
+  };
+  std::sort(out.begin(), out.end(), [&](const auto& x, const auto& y) { return key(x) < key(y); });
+  return out;
+}
+
 }  // namespace
 
 Topology build_topology(const Model& model, double near_miss_tolerance) {
   Topology topo;
   const size_t np = model.patches.size();
+  int degree = 1;
+  for (const BezierPatch& p : model.patches) degree = std::max({degree, p.degree_u, p.degree_v});
+  budget::check_memory(topology_bytes(np, degree), "the topology of " + std::to_string(np) + " patches",
+                       "use fewer patches or raise --max-memory");
   topo.sides.resize(np * 4);
-  std::map<CurveKey, int32_t> edge_of_key;
+  std::unordered_map<CurveKey, int32_t, CurveKeyHash> edge_of_key;
+  edge_of_key.reserve(np * 2);
   UnionFind corners(np * kCornersPerPatch);
 
   for (uint32_t p = 0; p < np; ++p) {
+    if ((p & 4095u) == 0) budget::check("building the topology");
     const BezierPatch& patch = model.patches[p];
     for (Side s : kAllSides) {
       Topology::SideInfo& info = topo.sides[p * 4 + static_cast<int>(s)];
@@ -185,38 +360,12 @@ Topology build_topology(const Model& model, double near_miss_tolerance) {
   }
 
   // Report unmatched sides that nearly coincide with another unmatched side, and near-collapsed sides.
-  double tol = near_miss_tolerance;
-  if (!(tol > 0.0)) tol = 1e-2 * model_box(model).diagonal();
-  std::vector<SideRef> open;
-  for (const Topology::Edge& e : topo.edges) {
-    if (e.uses.size() == 1) open.push_back(e.uses.front());
+  const NearMissIndex index = near_miss_sides(model, topo, near_miss_tolerance, &topo.near_miss_tolerance);
+  topo.near_miss_patch_fraction = near_miss_tolerance > 0.0 ? 0.0 : kNearMissPatchFraction;
+  for (const OpenSide& s : index.sides) {
+    if (s.extent < s.tol) topo.near_collapsed.push_back(s.ref);
   }
-  for (const SideRef& s : open) {
-    const BezierPatch& patch = model.patches[s.patch];
-    double extent = 0.0;
-    for (int k = 1; k <= side_degree(patch, s.side); ++k) {
-      extent = std::max(extent, glm::length(side_point(patch, s.side, k) - side_point(patch, s.side, 0)));
-    }
-    if (extent < tol) topo.near_collapsed.push_back(s);
-  }
-  // Sweep over the sides sorted by the x of their end points' midpoint: two polygons within `tol`
-  // pointwise have midpoints within `tol`, so only neighbours in that order need comparing.
-  auto mid_x = [&](const SideRef& s) {
-    const BezierPatch& patch = model.patches[s.patch];
-    return 0.5 * (side_point(patch, s.side, 0).x + side_point(patch, s.side, side_degree(patch, s.side)).x);
-  };
-  std::sort(open.begin(), open.end(), [&](const SideRef& a, const SideRef& b) { return mid_x(a) < mid_x(b); });
-  for (size_t a = 0; a < open.size(); ++a) {
-    const double xa = mid_x(open[a]);
-    for (size_t b = a + 1; b < open.size() && mid_x(open[b]) - xa <= tol; ++b) {
-      const BezierPatch& pa = model.patches[open[a].patch];
-      const BezierPatch& pb = model.patches[open[b].patch];
-      if (side_degree(pa, open[a].side) != side_degree(pb, open[b].side)) continue;
-      const double d = std::min(polygon_distance(pa, open[a].side, pb, open[b].side, false),
-                                polygon_distance(pa, open[a].side, pb, open[b].side, true));
-      if (d < tol) topo.near_misses.push_back({open[a], open[b], d});
-    }
-  }
+  topo.near_misses = find_near_misses(model, index);
   return topo;
 }
 

@@ -1,5 +1,6 @@
 #include "sagitta/pn.hpp"
 
+#include "sagitta/budget.hpp"
 #include "sagitta/mesh_normals.hpp"
 
 #include <glm/geometric.hpp>
@@ -488,6 +489,8 @@ Tessellation tessellate_pn(const Tessellation& base, const PnParams& params, PnS
   const uint64_t interior_base = edge_base + static_cast<uint64_t>(edges.size()) * static_cast<uint64_t>(segments - 1);
   const uint64_t total = interior_base + static_cast<uint64_t>(nt) * interior_count;
   if (total > UINT32_MAX) throw InputError("the PN tessellation needs more than 2^32 vertices; lower --level");
+  budget::check_memory(tessellation_bytes(2.0 * double(nt) * double(pattern.triangles.size()), double(total)),
+                       "the PN tessellation", "lower --level or raise --max-memory");
 
   const bool uv_out = base.has_surface() && base.triangle_patch.size() == nt && base.triangle_uv.size() == nt;
   const bool sp_out = uv_out && base.surface_points.size() == nv;
@@ -536,6 +539,7 @@ Tessellation tessellate_pn(const Tessellation& base, const PnParams& params, PnS
   const size_t per_tri = pattern.triangles.size();
   std::vector<Triangle> slots(nt * per_tri);
   tbb::parallel_for(size_t{0}, nt, [&](size_t t) {
+    if ((t & 1023u) == 0) budget::check("the PN tessellation");
     if (skipped[t]) return;
     const Triangle& tri = base.triangles[t];
     std::array<PnEdge, 3> side_edges;

@@ -1,5 +1,6 @@
 #include "sagitta/uniform.hpp"
 
+#include "sagitta/budget.hpp"
 #include "sagitta/boundary.hpp"
 #include "sagitta/evaluate.hpp"
 
@@ -88,6 +89,9 @@ Tessellation tessellate_uniform(const Model& model, const Topology& topology, co
     next_slot += 2ull * static_cast<uint64_t>(plan.n) * static_cast<uint64_t>(plan.n) + extra + (plan.centre ? 2 : 0);
   }
   if (next_vertex > UINT32_MAX) throw InputError("the tessellation needs more than 2^32 vertices; lower the level");
+  // The slots and the final triangle arrays live together at the end.
+  budget::check_memory(tessellation_bytes(2.0 * double(next_slot), double(next_vertex)), "the uniform tessellation",
+                       "lower the level or raise --max-memory");
 
   Tessellation out;
   out.positions.resize(next_vertex);
@@ -100,6 +104,7 @@ Tessellation tessellate_uniform(const Model& model, const Topology& topology, co
   constexpr uint32_t kSkip = UINT32_MAX;
 
   tbb::parallel_for(size_t{0}, np, [&](size_t p) {
+    budget::check("the uniform tessellation");
     const BezierPatch& patch = model.patches[p];
     const uint32_t pid = static_cast<uint32_t>(p);
     const PatchPlan& plan = plans[p];

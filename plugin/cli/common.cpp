@@ -92,6 +92,9 @@ nlohmann::json topology_json(const Model& model, const Topology& topo) {
                       {"side_b", side_name(m.b.side)}, {"distance", m.distance}});
   }
   j["near_misses"] = misses;
+  // Two unmatched sides are listed when their control polygons are closer than the smaller of the
+  // two sides' tolerances: min(model_wide, patch_fraction x the side's patch control-box diagonal).
+  j["near_miss_tolerance"] = {{"model_wide", topo.near_miss_tolerance}, {"patch_fraction", topo.near_miss_patch_fraction}};
   nlohmann::json near = nlohmann::json::array();
   for (const SideRef& s : topo.near_collapsed) near.push_back({{"patch", s.patch}, {"side", side_name(s.side)}});
   j["near_collapsed_sides"] = near;

@@ -1,4 +1,5 @@
 // sagitta: certified tessellation of Bézier surfaces.
+#include "budget_options.hpp"
 #include "commands.hpp"
 
 #include <tbb/global_control.h>
@@ -23,6 +24,8 @@ int main(int argc, char** argv) {
       sagitta::cli::register_peer(app),
       sagitta::cli::register_bench(app),
   };
+  sagitta::cli::BudgetOptions budget;
+  for (const auto& command : commands) sagitta::cli::add_budget_options(command.app, budget);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -38,6 +41,7 @@ int main(int argc, char** argv) {
   }
   std::unique_ptr<tbb::global_control> limit;
   if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
+  sagitta::cli::start_budget(budget);
   try {
     for (const auto& command : commands) {
       if (command.app->parsed()) command.run();

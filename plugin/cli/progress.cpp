@@ -27,7 +27,7 @@ void ProgressLine::update(int step, int steps, const std::string& what) {
     const int filled = std::clamp(step * kWidth / steps, 0, kWidth);
     line += "[" + std::string(filled, '#') + std::string(kWidth - filled, '.') + "] " + std::to_string(step) + "/" +
             std::to_string(steps) + " ";
-  } else {
+  } else if (steps == 0) {
     line += "step " + std::to_string(step) + " ";
   }
   line += what;
@@ -37,6 +37,22 @@ void ProgressLine::update(int step, int steps, const std::string& what) {
   std::fprintf(stderr, "\r\033[K%s", line.c_str());
   std::fflush(stderr);
   drawn_ = true;
+}
+
+ProgressTicker::ProgressTicker(std::string label, std::string what)
+    : line_(std::move(label)), what_(std::move(what)), thread_([this] {
+        std::unique_lock<std::mutex> lock(mutex_);
+        while (!wake_.wait_for(lock, std::chrono::seconds(1), [this] { return stop_; })) line_.update(0, -1, what_);
+        line_.clear();
+      }) {}
+
+ProgressTicker::~ProgressTicker() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_one();
+  thread_.join();
 }
 
 }  // namespace sagitta::cli

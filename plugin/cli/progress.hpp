@@ -2,8 +2,12 @@
 // the run has lasted more than a second, so pipes, logs and tests see nothing.
 #pragma once
 
+#include <atomic>
 #include <chrono>
+#include <condition_variable>
+#include <mutex>
 #include <string>
+#include <thread>
 
 namespace sagitta::cli {
 
@@ -14,7 +18,8 @@ class ProgressLine {
   ProgressLine(const ProgressLine&) = delete;
   ProgressLine& operator=(const ProgressLine&) = delete;
 
-  // Redraws "label [#####.....] step/steps what" (no bar when steps <= 0).
+  // Redraws "label [#####.....] step/steps what" ("label step N what" when steps == 0, "label what"
+  // when steps < 0).
   void update(int step, int steps, const std::string& what);
   // Erases the line (call before printing results); later updates draw again.
   void clear();
@@ -24,6 +29,25 @@ class ProgressLine {
   std::chrono::steady_clock::time_point start_;
   bool enabled_ = false;
   bool drawn_ = false;
+};
+
+// For work with no steps to count (one long validation): a thread redraws "label what  N s" once a
+// second while the ticker lives (on a terminal only, like ProgressLine), so a long run visibly
+// progresses; Ctrl-C and --max-seconds stop the work itself (sagitta/budget.hpp).
+class ProgressTicker {
+ public:
+  ProgressTicker(std::string label, std::string what);
+  ~ProgressTicker();  // stops the thread and erases the line
+  ProgressTicker(const ProgressTicker&) = delete;
+  ProgressTicker& operator=(const ProgressTicker&) = delete;
+
+ private:
+  ProgressLine line_;
+  std::string what_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool stop_ = false;
+  std::thread thread_;
 };
 
 }  // namespace sagitta::cli

@@ -1,5 +1,6 @@
 #include "scene_plan.hpp"
 
+#include "sagitta/budget.hpp"
 #include "sagitta/certify.hpp"
 #include "sagitta/esc.hpp"
 #include "sagitta/fixtures.hpp"
@@ -46,12 +47,19 @@ int closed_orientation(const Model& model, const Topology& topology) {
   return volume > 0.0 ? 1 : volume < 0.0 ? -1 : 0;
 }
 
-// The triangles of one patch as a one-patch tessellation (vertices renumbered, patch index 0).
-Tessellation patch_submesh(const Tessellation& mesh, uint32_t patch) {
+// The triangles of each patch of a tessellation, in order (one pass, so that per-patch work on a
+// large mesh is linear in the mesh, not patches x triangles).
+std::vector<std::vector<uint32_t>> triangles_by_patch(const Tessellation& mesh, size_t patches) {
+  std::vector<std::vector<uint32_t>> out(patches);
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) out[mesh.triangle_patch[t]].push_back(static_cast<uint32_t>(t));
+  return out;
+}
+
+// The given triangles of one patch as a one-patch tessellation (vertices renumbered, patch index 0).
+Tessellation patch_submesh(const Tessellation& mesh, const std::vector<uint32_t>& triangles) {
   Tessellation out;
   std::map<uint32_t, uint32_t> renumber;
-  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
-    if (mesh.triangle_patch[t] != patch) continue;
+  for (const uint32_t t : triangles) {
     Triangle tri;
     for (int k = 0; k < 3; ++k) {
       const uint32_t id = mesh.triangles[t][static_cast<size_t>(k)];
@@ -94,11 +102,13 @@ double subdivided_affine_bound(const BezierPatch& patch, const std::array<Vec2, 
 // Bernstein bound on 16 sub-triangles per triangle). With a collapsed side the dropped degenerate
 // triangles leave slivers of the square uncovered, and the validator (which reconstructs them)
 // certifies the patch instead.
-double certified_patch_error(const BezierPatch& patch, bool collapsed_side, const Tessellation& mesh, uint32_t p) {
+// `triangles`: the patch's triangles in `mesh`.
+double certified_patch_error(const BezierPatch& patch, bool collapsed_side, const Tessellation& mesh,
+                             const std::vector<uint32_t>& triangles) {
   if (!collapsed_side) {
     double error = 0.0;
-    for (size_t t = 0; t < mesh.triangles.size(); ++t) {
-      if (mesh.triangle_patch[t] != p) continue;
+    for (const uint32_t t : triangles) {
+      if ((t & 4095u) == 0) budget::check("the scene's error bounds");
       const Triangle& tri = mesh.triangles[t];
       const std::array<Vec3, 3> x = {mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
       error = std::max(error, subdivided_affine_bound(patch, mesh.triangle_uv[t], x, 2));
@@ -107,7 +117,7 @@ double certified_patch_error(const BezierPatch& patch, bool collapsed_side, cons
   }
   Model one;
   one.patches.push_back(patch);
-  const Tessellation sub = patch_submesh(mesh, p);
+  const Tessellation sub = patch_submesh(mesh, triangles);
   if (sub.triangles.empty()) return 0.0;  // every triangle collapsed: the patch is a point or a curve
   // Only the per-triangle upper bounds are used: the certified lower bounds get a token budget, and
   // the refinement stops at depth 5 (a looser bound only ever asks for a finer level).
@@ -214,9 +224,10 @@ class ScenePlanner::Caches {
       const auto start = std::chrono::steady_clock::now();
       const Model& m = scene_.models[model];
       const Tessellation mesh = tessellate(model, std::vector<int>(m.patches.size(), q));
+      const std::vector<std::vector<uint32_t>> by_patch = triangles_by_patch(mesh, m.patches.size());
       errors.resize(m.patches.size());
       tbb::parallel_for(size_t{0}, m.patches.size(), [&](size_t k) {
-        errors[k] = certified_patch_error(m.patches[k], collapsed(model, static_cast<uint32_t>(k)), mesh, static_cast<uint32_t>(k));
+        errors[k] = certified_patch_error(m.patches[k], collapsed(model, static_cast<uint32_t>(k)), mesh, by_patch[k]);
       });
       certify_seconds += seconds_since(start);
     }
@@ -225,13 +236,14 @@ class ScenePlanner::Caches {
 
   // Certified error of patch p in `mesh` (tessellated with parameters q), cached by the patch's own
   // parameter and the parameters its sides were decided with.
-  double stitched_error(size_t model, uint32_t p, const std::vector<int>& q, const Tessellation& mesh) {
+  double stitched_error(size_t model, uint32_t p, const std::vector<int>& q, const Tessellation& mesh,
+                        const std::vector<uint32_t>& triangles) {
     const std::array<int, 4> sides = side_parameters(model, p, q);
     const auto key = std::make_tuple(model, p, q[p], sides);
     auto it = stitched_.find(key);
     if (it != stitched_.end()) return it->second;
     const auto start = std::chrono::steady_clock::now();
-    const double error = certified_patch_error(scene_.models[model].patches[p], collapsed(model, p), mesh, p);
+    const double error = certified_patch_error(scene_.models[model].patches[p], collapsed(model, p), mesh, triangles);
     certify_seconds += seconds_since(start);
     stitched_.emplace(key, error);
     return error;
@@ -415,15 +427,17 @@ SceneResult ScenePlanner::run(const io::SceneCamera& camera, const std::function
     Tessellation mesh;
     for (;;) {
       const auto start = std::chrono::steady_clock::now();
+      budget::check("the scene");
       mesh = planner.tessellate(mi, q);
       tessellate_seconds += seconds_since(start);
+      const std::vector<std::vector<uint32_t>> by_patch = triangles_by_patch(mesh, np);
       bool changed = false;
       for (uint32_t p = 0; p < np; ++p) {
         PatchChoice& c = choices[p];
         if (c.state != PatchState::kVisible) continue;
         const std::array<int, 4> sides = planner.side_parameters(mi, p, q);
         const bool stitched = std::any_of(sides.begin(), sides.end(), [&](int s) { return s > q[p]; });
-        c.certified_error = stitched ? planner.stitched_error(mi, p, q, mesh) : planner.plain_error(mi, p, q[p]);
+        c.certified_error = stitched ? planner.stitched_error(mi, p, q, mesh, by_patch[p]) : planner.plain_error(mi, p, q[p]);
         if (!(c.certified_error <= c.required_error) && q[p] < planner.finest() && stitched) {
           ++q[p];
           ++result.stitch_refinements;
@@ -463,6 +477,9 @@ SceneResult ScenePlanner::run(const io::SceneCamera& camera, const std::function
     }
     std::vector<uint32_t> renumber(mesh.positions.size(), UINT32_MAX);
     Tessellation& out = result.mesh;
+    budget::check_memory(tessellation_bytes(double(out.triangles.size() + mesh.triangles.size()),
+                                            double(out.positions.size() + mesh.positions.size())),
+                         "the scene's mesh after instance " + std::to_string(inst), "raise the tolerance or --max-memory");
     for (size_t t = 0; t < mesh.triangles.size(); ++t) {
       const int64_t wp = world_patch[mesh.triangle_patch[t]];
       if (wp < 0) continue;

@@ -1,10 +1,12 @@
 #include "schemes.hpp"
 
+#include "sagitta/budget.hpp"
 #include "sagitta/mesh_normals.hpp"
 #include "sagitta/pn.hpp"
 #include "sagitta/esc.hpp"
 #include "sagitta/uniform.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <iomanip>
@@ -46,18 +48,38 @@ void add_scheme_options(CLI::App* command, SchemeOptions& o) {
 namespace {
 
 // The estimate is a double: products of large counts (2 N^2 patches) must not wrap around.
-void check_size(double estimate, const SchemeOptions& o) {
+// `other_bytes`: what the run holds besides the mesh (a replicated model, its topology).
+void check_size(double estimate, const SchemeOptions& o, double other_bytes = 0.0) {
   if (estimate > static_cast<double>(o.max_triangles)) {
     std::ostringstream s;
     s << std::fixed << std::setprecision(0) << "this would make " << estimate << " triangles (about " << std::ceil(estimate * 64.0 / (1 << 30))
       << " GiB), more than --max-triangles " << o.max_triangles << "; lower the level or raise --max-triangles";
     throw InputError(s.str());
   }
+  budget::check_memory(tessellation_bytes(estimate, estimate) + other_bytes,
+                       "this tessellation (" + std::to_string(static_cast<uint64_t>(std::min(estimate, 1e19))) + " triangles)",
+                       "lower the level or --copies, or raise --max-memory");
 }
 
 }  // namespace
 
-void check_triangle_estimate(double estimate, const SchemeOptions& options) { check_size(estimate, options); }
+void check_triangle_estimate(double estimate, const SchemeOptions& options, double other_bytes) {
+  check_size(estimate, options, other_bytes);
+}
+
+double scheme_triangle_estimate(const Model& model, const SchemeOptions& o) {
+  const double patches = static_cast<double>(model.patches.size());
+  if (o.scheme == "uniform") {
+    const double n = o.level >= 0 ? segments_for_level(o.level) : std::max(o.segments, 1);
+    return 2.0 * n * n * patches;
+  }
+  if (o.scheme == "esc" && o.level >= 0 && o.level <= kMaxEscLevel) return static_cast<double>(esc_full_triangle_count(model, o.level));
+  if (o.scheme == "pn" && o.base_level >= 0) {
+    const double n = segments_for_level(o.base_level);
+    return 2.0 * n * n * patches;  // the base; its refinement is checked (with its pattern's limits) before it runs
+  }
+  return 2.0 * patches;  // every patch makes at least 2 triangles
+}
 
 Tessellation run_scheme(const Model& model, const Topology& topology, const SchemeOptions& o, nlohmann::json& stats) {
   stats["scheme"] = o.scheme;

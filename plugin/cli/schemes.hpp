@@ -35,8 +35,14 @@ std::vector<std::string> scheme_names();
 // Adds --scheme, --level, --segments, --threshold and --max-triangles to a subcommand.
 void add_scheme_options(CLI::App* command, SchemeOptions& options);
 
-// Refuses (InputError saying what to do) an estimated output above options.max_triangles.
-void check_triangle_estimate(double estimate, const SchemeOptions& options);
+// The resource guard of every command that tessellates: refuses (one line saying what to do) an
+// estimated output above options.max_triangles, or whose memory (the mesh plus `other_bytes`)
+// exceeds --max-memory (sagitta/budget.hpp; the kernels check again where they allocate).
+void check_triangle_estimate(double estimate, const SchemeOptions& options, double other_bytes = 0.0);
+
+// Triangles the chosen scheme makes on the model at most (esc: its full pattern; pn on a patch
+// model: the uniform base, whose refinement run_scheme checks before running it).
+double scheme_triangle_estimate(const Model& model, const SchemeOptions& options);
 
 // Runs the chosen scheme; fills `stats` with the scheme's parameters and counts (not timing).
 // Refuses, with a message, a tessellation whose estimated size exceeds max_triangles.

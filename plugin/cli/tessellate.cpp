@@ -4,6 +4,7 @@
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/io/model_io.hpp"
 
+#include <algorithm>
 #include <iostream>
 #include <memory>
 
@@ -51,8 +52,13 @@ void run_tessellate(const TessellateOptions& o) {
   }
   nlohmann::json cad;
   Model model = load_model(o.input, &cad);
-  // Every patch makes at least 2 triangles: refuse before replicating a model that cannot fit.
-  check_triangle_estimate(2.0 * static_cast<double>(model.patches.size()) * o.copies, o.scheme);
+  // Refuse before replicating a model that cannot fit: the mesh, the copies and their topology.
+  int degree = 1;
+  for (const BezierPatch& p : model.patches) degree = std::max({degree, p.degree_u, p.degree_v});
+  const size_t patches = model.patches.size() * static_cast<size_t>(o.copies);
+  check_triangle_estimate(scheme_triangle_estimate(model, o.scheme) * o.copies, o.scheme,
+                          o.copies > 1 ? model_bytes(patches, degree, degree, true) + topology_bytes(patches, degree)
+                                       : topology_bytes(patches, degree));
   model = replicate(model, o.copies);
   const Topology topology = build_topology(model);
   nlohmann::json stats;

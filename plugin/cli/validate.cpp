@@ -1,6 +1,7 @@
 // `sagitta validate`: certified distance interval and topology verdict for a tessellation of a
 // patch model, made here by a scheme or read from a mesh file.
 #include "commands.hpp"
+#include "progress.hpp"
 #include "schemes.hpp"
 
 #include "sagitta/certify.hpp"
@@ -122,16 +123,20 @@ int run_validate(const ValidateOptions& o) {
   CertifyOptions certify;
   certify.max_depth = o.max_depth;
   DistanceReport distance;
-  if (mesh.has_surface()) {
-    distance = certify_distance(model, mesh, certify);
-    doc["method"] = "bernstein";
-  } else {
-    ExternalOptions external;
-    external.reference_segments = o.reference_segments;
-    external.certify = certify;
-    distance = certify_external(model, mesh, external);
-    doc["method"] = "reference";
-    doc["reference_segments"] = o.reference_segments;
+  {
+    // On a terminal, a line showing the certification running (it can take minutes).
+    const ProgressTicker progress("sagitta validate:", "certifying " + std::to_string(mesh.triangles.size()) + " triangles");
+    if (mesh.has_surface()) {
+      distance = certify_distance(model, mesh, certify);
+      doc["method"] = "bernstein";
+    } else {
+      ExternalOptions external;
+      external.reference_segments = o.reference_segments;
+      external.certify = certify;
+      distance = certify_external(model, mesh, external);
+      doc["method"] = "reference";
+      doc["reference_segments"] = o.reference_segments;
+    }
   }
   const double distance_seconds = clock.seconds();
   const Stopwatch topo_clock;

@@ -3,6 +3,7 @@
 
 #include "conditioning.hpp"
 #include "mesh_distance.hpp"
+#include "sagitta/budget.hpp"
 #include "sagitta/evaluate.hpp"
 
 #include <CGAL/box_intersection_d.h>
@@ -408,6 +409,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
   std::vector<Leaf> stack;
   stack.push_back({{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}, 0});
   while (!stack.empty()) {
+    budget::check("validation");
     const Leaf leaf = stack.back();
     stack.pop_back();
     ++res.leaves;
@@ -746,6 +748,7 @@ double certified_distance_lower_conditioned(const Model& model, const Vec3& x, d
   double result = target;
   int spent = 0;
   while (!stack.empty()) {
+    if ((spent & 255) == 0) budget::check("validation");
     Node node = std::move(stack.back());
     stack.pop_back();
     node.lb = node_lower(node, scale);

@@ -67,7 +67,9 @@ struct Topology {
   std::vector<uint32_t> corner_class;    // index patch * 4 + corner -> shared corner id
   uint32_t corner_classes = 0;
   std::vector<Vec3> corner_position;     // per corner class
-  std::vector<NearMiss> near_misses;
+  std::vector<NearMiss> near_misses;     // sorted by (a, b); each pair once
+  double near_miss_tolerance = 0.0;      // the model-wide tolerance used (see build_topology)
+  double near_miss_patch_fraction = 0.0; // and the fraction of a patch's size that caps it (0: none)
   std::vector<SideRef> near_collapsed;   // sides shorter than the tolerance but not exactly a point
 
   const SideInfo& side(uint32_t patch, Side s) const { return sides[patch * 4 + static_cast<int>(s)]; }
@@ -77,8 +79,22 @@ struct Topology {
   size_t collapsed_sides() const;
 };
 
-// Builds the topology. `near_miss_tolerance` (model units; <= 0 picks 1e-2 of the model's box
-// diagonal) only controls which unmatched sides are reported as near misses.
+// Default near-miss tolerance of a side: the smaller of these fractions of the model's box diagonal
+// and of the side's patch's control-box diagonal.
+inline constexpr double kNearMissModelFraction = 1e-2;
+inline constexpr double kNearMissPatchFraction = 5e-2;
+
+// Builds the topology. Near misses and near-collapsed sides are only reported, never merged: two
+// unmatched sides are a near miss when their control polygons lie within the smaller of their
+// tolerances, and a side is near-collapsed when shorter than its tolerance. A side's tolerance is
+// `near_miss_tolerance` (model units) when > 0, else the default above. Found with a spatial
+// index (no quadratic pass); honours the run's budget (sagitta/budget.hpp).
 Topology build_topology(const Model& model, double near_miss_tolerance = 0.0);
+
+// Bytes build_topology allocates for `patches` patches of degree up to `degree` (an estimate for
+// the memory guard, generous rather than tight).
+double topology_bytes(size_t patches, int degree);
+// Bytes of a model of `patches` patches of degree up to (du, dv), rational or not.
+double model_bytes(size_t patches, int du, int dv, bool rational);
 
 }  // namespace sagitta

@@ -31,4 +31,11 @@ struct Tessellation {
   bool has_surface() const { return !triangle_patch.empty() && !triangle_uv.empty(); }
 };
 
+// Bytes of a tessellation with every array filled (triangle, patch and (u, v) per triangle;
+// position, normal and surface point per vertex), for the memory guard (sagitta/budget.hpp).
+inline double tessellation_bytes(double triangles, double vertices) {
+  return triangles * double(sizeof(Triangle) + sizeof(uint32_t) + sizeof(std::array<Vec2, 3>)) +
+         vertices * double(2 * sizeof(Vec3) + sizeof(SurfacePoint));
+}
+
 }  // namespace sagitta

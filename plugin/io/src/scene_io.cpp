@@ -130,6 +130,58 @@ glm::dmat4 parse_transform(const Json& j, const Reader& r) {
   return m;
 }
 
+// A first pass over the text that builds nothing: refuses nesting deeper than kMaxDepth and more
+// than kMaxInstances top-level "instances" before any per-instance data exists, and reports
+// syntax errors as nlohmann::json does. Linear in the text (nlohmann's DOM parse with a callback
+// is not: 25k instances took 3.6 s, 50k 15 s).
+class SceneScan : public nlohmann::json_sax<Json> {
+ public:
+  static constexpr size_t kMaxDepth = 32;
+  explicit SceneScan(const std::string& name) : name_(name) {}
+
+  bool null() override { return value(); }
+  bool boolean(bool) override { return value(); }
+  bool number_integer(number_integer_t) override { return value(); }
+  bool number_unsigned(number_unsigned_t) override { return value(); }
+  bool number_float(number_float_t, const string_t&) override { return value(); }
+  bool string(string_t&) override { return value(); }
+  bool binary(binary_t&) override { return value(); }
+  bool start_object(size_t) override { return open(Kind::kObject); }
+  bool key(string_t& key) override {
+    key_is_instances_ = stack_.size() == 1 && key == "instances";
+    return true;
+  }
+  bool end_object() override { return close(); }
+  bool start_array(size_t) override { return open(key_is_instances_ && stack_.size() == 1 ? Kind::kInstances : Kind::kArray); }
+  bool end_array() override { return close(); }
+  bool parse_error(size_t, const std::string&, const nlohmann::detail::exception& e) override { throw e; }
+
+ private:
+  enum class Kind { kObject, kArray, kInstances };
+  bool value() {
+    if (!stack_.empty() && stack_.back() == Kind::kInstances && ++instances_ > kMaxInstances) {
+      throw InputError(name_ + ": instances: more than " + std::to_string(kMaxInstances) + " instances");
+    }
+    return true;
+  }
+  bool open(Kind kind) {
+    value();
+    if (stack_.size() >= kMaxDepth) throw InputError(name_ + ": nesting deeper than " + std::to_string(kMaxDepth) + " levels");
+    stack_.push_back(kind);
+    key_is_instances_ = false;
+    return true;
+  }
+  bool close() {
+    stack_.pop_back();
+    return true;
+  }
+
+  const std::string& name_;
+  std::vector<Kind> stack_;
+  bool key_is_instances_ = false;
+  size_t instances_ = 0;
+};
+
 }  // namespace
 
 const std::vector<std::string>& scene_fixture_names() {
@@ -141,11 +193,10 @@ Scene parse_scene(const std::string& text, const std::string& name) {
   if (text.find_first_not_of(" \t\r\n") == std::string::npos) throw InputError(name + ": empty scene file");
   Json doc;
   try {
-    // Deeply nested input is refused before it is built.
-    doc = Json::parse(text, [&](int depth, Json::parse_event_t, Json&) {
-      if (depth > 32) throw InputError(name + ": nesting deeper than 32 levels");
-      return true;
-    });
+    // Deep nesting and too many instances are refused before anything is built.
+    SceneScan scan(name);
+    Json::sax_parse(text, &scan);
+    doc = Json::parse(text);
   } catch (const Json::exception& e) {
     std::string what = e.what();
     const size_t bracket = what.find("] ");
