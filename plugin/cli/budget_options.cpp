@@ -1,6 +1,7 @@
 #include "budget_options.hpp"
 
 #include "sagitta/budget.hpp"
+#include "sagitta/io/mesh_io.hpp"
 
 #include <unistd.h>
 
@@ -11,9 +12,18 @@ namespace sagitta::cli {
 
 namespace {
 
+// The first Ctrl-C cancels the work (it stops at the next budget check, one line, exit 2); a second
+// one ends the process at once, after removing the temporary files of writes in progress (this
+// handler replaces the one write_file_atomic would install for SIGINT).
 extern "C" void on_interrupt(int) {
-  sagitta::budget::request_cancel();
-  std::signal(SIGINT, SIG_DFL);  // a second Ctrl-C ends the process at once
+  static volatile std::sig_atomic_t interrupts = 0;
+  if (interrupts++ == 0) {
+    sagitta::budget::request_cancel();
+    return;
+  }
+  sagitta::io::remove_temp_files();
+  std::signal(SIGINT, SIG_DFL);
+  std::raise(SIGINT);
 }
 
 }  // namespace
