@@ -68,8 +68,8 @@ Plan make_plan(const Model& model, const std::vector<Vec3>& points) {
     if (!patch.rational()) continue;
     const auto [lo, hi] = std::minmax_element(patch.weights.begin(), patch.weights.end());
     if (!(*lo > 0.0) || *hi / *lo > kMaxWeightSpan || !std::isfinite(*hi / *lo)) {
-      plan.reason = "patch " + std::to_string(i) + "'s weights span " + number(*lo) + " to " + number(*hi) +
-                    ", more than the 1e60 the certified bounds can carry without underflow";
+      plan.reason = "patch " + std::to_string(i) + "'s weights span a factor of " + number(*hi / *lo) +
+                    " (largest / smallest), more than the 1e60 the certified bounds can carry without underflow";
       return plan;
     }
     plan.weight_exponent[i] = rescale_exponent(*hi);
