@@ -274,6 +274,48 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
         if (i > 0 && j > 0) mask[static_cast<size_t>(lat.index(i * P, j * P))] = 1;
       }
     }
+    // Two adjacent sides collapsed to their common corner C: every lattice point on the two sides is
+    // C, so any two pattern edges from one vertex to the two sides are one edge in 3D. With a chord
+    // (a coarse edge without inserted candidates) from the corner cell's grid corner to each side,
+    // or a corner-cell triangle fanned from C over the diagonal, the corner region closed into a
+    // bubble (the same triangle twice, non-manifold edges; issue 20). The corner cell and its two
+    // neighbours along the sides therefore take the full pattern (as at rho = 0, where the lattice
+    // triangles are a disc): every point of their coarse edges is inserted, except on a side that is
+    // not collapsed, whose decision is shared with the neighbouring patch.
+    {
+      bool side_collapsed[4];
+      for (Side side : kAllSides) side_collapsed[static_cast<int>(side)] = topology.side(pid, side).collapsed;
+      auto on_free_side = [&](int a, int b) {
+        return (a == 0 && !side_collapsed[static_cast<int>(Side::kU0)]) ||
+               (a == na && !side_collapsed[static_cast<int>(Side::kU1)]) ||
+               (b == 0 && !side_collapsed[static_cast<int>(Side::kV0)]) ||
+               (b == mb && !side_collapsed[static_cast<int>(Side::kV1)]);
+      };
+      auto force_cell = [&](int i, int j) {
+        if (i < 0 || i >= lat.n || j < 0 || j >= lat.m) return;
+        for (int s = 0; s <= P; ++s) {
+          const int pts[5][2] = {{i * P + s, j * P}, {i * P + s, (j + 1) * P}, {i * P, j * P + s},
+                                 {(i + 1) * P, j * P + s}, {i * P + s, j * P + s}};
+          for (const auto& pt : pts) {
+            uint8_t& m = mask[static_cast<size_t>(lat.index(pt[0], pt[1]))];
+            if (m || on_free_side(pt[0], pt[1])) continue;
+            m = 1;
+            const bool on_side = pt[0] == 0 || pt[0] == na || pt[1] == 0 || pt[1] == mb;
+            if (!on_side) ++n_inserted;  // an interior candidate the distance test had left out
+          }
+        }
+      };
+      for (Side us : {Side::kU0, Side::kU1}) {
+        for (Side vs : {Side::kV0, Side::kV1}) {
+          if (!side_collapsed[static_cast<int>(us)] || !side_collapsed[static_cast<int>(vs)]) continue;
+          const int ci = us == Side::kU0 ? 0 : lat.n - 1, cj = vs == Side::kV0 ? 0 : lat.m - 1;
+          const int di = us == Side::kU0 ? 1 : -1, dj = vs == Side::kV0 ? 1 : -1;
+          force_cell(ci, cj);
+          force_cell(ci + di, cj);  // the next cell along the V side
+          force_cell(ci, cj + dj);  // the next cell along the U side
+        }
+      }
+    }
     // An inserted edge vertex inserts its whole row inside the coarse triangle.
     for (int i = 0; i < lat.n; ++i) {
       for (int j = 0; j < lat.m; ++j) {

@@ -459,23 +459,37 @@ TEST(Esc, CollapsedSidesCountDegenerateTriangles) {
 
 // Issue 20 item 9: next to a side collapsed to a point, a virtual vertex on the collapsed coarse
 // edge is the collapse point, and two strips of one coarse triangle fanned the same triangle from it
-// (seen on v = 0 and v = 1, never on u = 0 or u = 1). Random bicubic patches with each side
-// collapsed, several levels and thresholds: no triangle twice, none degenerate, and the mesh is a
-// disc (consistently oriented, manifold, Euler characteristic 1, open edges only on the free sides).
+// (seen on v = 0 and v = 1, never on u = 0 or u = 1). Two adjacent sides collapsed to their common
+// corner closed the corner region into a bubble (a triangle twice, Euler characteristic 2) until the
+// corner cell and its two neighbours took the full pattern. Random bicubic patches with each side,
+// each opposite pair and each adjacent pair collapsed, several levels and thresholds: no triangle
+// twice, none degenerate, and the mesh is a disc (consistently oriented, manifold, Euler
+// characteristic 1, open edges only on the free sides).
 TEST(Esc, CollapsedSideNeverDuplicatesATriangle) {
-  // Each side alone and both opposite pairs (a spindle). Two adjacent sides collapsed to their
-  // common corner are not covered: see docs/ESC.md.
+  // Each side alone, both opposite pairs (a spindle) and the four adjacent pairs (collapsed to
+  // their common corner: every lattice point of both sides is one vertex).
   const std::vector<std::vector<Side>> cases = {{Side::kU0}, {Side::kU1}, {Side::kV0}, {Side::kV1},
-                                                {Side::kU0, Side::kU1}, {Side::kV0, Side::kV1}};
+                                                {Side::kU0, Side::kU1}, {Side::kV0, Side::kV1},
+                                                {Side::kU0, Side::kV0}, {Side::kU0, Side::kV1},
+                                                {Side::kU1, Side::kV0}, {Side::kU1, Side::kV1}};
   size_t meshes = 0;
   for (uint64_t seed = 1; seed <= 12; ++seed) {
     for (const std::vector<Side>& sides : cases) {
       BezierPatch patch = fixtures::random_patch(3, 3, seed);
+      // A side collapses to its first control point; a U side and a V side to their common corner.
+      int ci = -1, cj = -1;
+      for (Side side : sides) {
+        if (side == Side::kU0 || side == Side::kU1) ci = side == Side::kU1 ? 3 : 0;
+        if (side == Side::kV0 || side == Side::kV1) cj = side == Side::kV1 ? 3 : 0;
+      }
+      const bool adjacent = ci >= 0 && cj >= 0;
+      const Vec3 corner = adjacent ? patch.at(ci, cj) : Vec3(0.0);
       for (Side side : sides) {
         const int i0 = side == Side::kU1 ? 3 : 0, j0 = side == Side::kV1 ? 3 : 0;
+        const Vec3 point = adjacent ? corner : patch.at(i0, j0);
         for (int k = 0; k <= 3; ++k) {
           const bool along_v = side == Side::kU0 || side == Side::kU1;
-          patch.at(along_v ? i0 : k, along_v ? k : j0) = patch.at(i0, j0);
+          patch.at(along_v ? i0 : k, along_v ? k : j0) = point;
         }
       }
       Model model;
@@ -520,7 +534,7 @@ TEST(Esc, CollapsedSideNeverDuplicatesATriangle) {
       }
     }
   }
-  EXPECT_EQ(meshes, 12u * 6u * 6u * 9u);
+  EXPECT_EQ(meshes, 12u * 10u * 6u * 9u);
 }
 
 TEST(Esc, SameOutputForAnyThreadCount) {
