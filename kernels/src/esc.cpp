@@ -282,14 +282,15 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
     // neighbours along the sides therefore take the full pattern (as at rho = 0, where the lattice
     // triangles are a disc): every point of their coarse edges is inserted, except on a side that is
     // not collapsed, whose decision is shared with the neighbouring patch.
+    // Which sides of this patch collapse to a point (used here and by the strip reconstruction).
+    bool collapsed[4];
+    for (Side side : kAllSides) collapsed[static_cast<int>(side)] = topology.side(pid, side).collapsed;
     {
-      bool side_collapsed[4];
-      for (Side side : kAllSides) side_collapsed[static_cast<int>(side)] = topology.side(pid, side).collapsed;
       auto on_free_side = [&](int a, int b) {
-        return (a == 0 && !side_collapsed[static_cast<int>(Side::kU0)]) ||
-               (a == na && !side_collapsed[static_cast<int>(Side::kU1)]) ||
-               (b == 0 && !side_collapsed[static_cast<int>(Side::kV0)]) ||
-               (b == mb && !side_collapsed[static_cast<int>(Side::kV1)]);
+        return (a == 0 && !collapsed[static_cast<int>(Side::kU0)]) ||
+               (a == na && !collapsed[static_cast<int>(Side::kU1)]) ||
+               (b == 0 && !collapsed[static_cast<int>(Side::kV0)]) ||
+               (b == mb && !collapsed[static_cast<int>(Side::kV1)]);
       };
       auto force_cell = [&](int i, int j) {
         if (i < 0 || i >= lat.n || j < 0 || j >= lat.m) return;
@@ -307,7 +308,7 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
       };
       for (Side us : {Side::kU0, Side::kU1}) {
         for (Side vs : {Side::kV0, Side::kV1}) {
-          if (!side_collapsed[static_cast<int>(us)] || !side_collapsed[static_cast<int>(vs)]) continue;
+          if (!collapsed[static_cast<int>(us)] || !collapsed[static_cast<int>(vs)]) continue;
           const int ci = us == Side::kU0 ? 0 : lat.n - 1, cj = vs == Side::kV0 ? 0 : lat.m - 1;
           const int di = us == Side::kU0 ? 1 : -1, dj = vs == Side::kV0 ? 1 : -1;
           force_cell(ci, cj);
@@ -371,8 +372,6 @@ Tessellation tessellate_esc(const Model& model, const Topology& topology, const 
     auto inserted = [&](int a, int b) { return mask[static_cast<size_t>(lat.index(a, b))] != 0; };
     // True when lattice point (a, b) lies on a side of the patch collapsed to a point: its vertex id
     // is the collapse vertex, whether or not the point was inserted.
-    bool collapsed[4];
-    for (Side side : kAllSides) collapsed[static_cast<int>(side)] = topology.side(pid, side).collapsed;
     auto on_collapsed_side = [&](int a, int b) {
       return (a == 0 && collapsed[static_cast<int>(Side::kU0)]) || (a == na && collapsed[static_cast<int>(Side::kU1)]) ||
              (b == 0 && collapsed[static_cast<int>(Side::kV0)]) || (b == mb && collapsed[static_cast<int>(Side::kV1)]);
