@@ -2,7 +2,10 @@
 validation and fitting. The GUI commands and the headless tests call exactly these functions.
 
 Nothing here modifies a source shape: shapes are read (poles, or their BREP text) and every result
-goes into new or Sagitta-owned objects, inside a document transaction so that Undo works."""
+goes into new or Sagitta-owned objects, inside a document transaction so that Undo works.
+
+This module never imports SagittaGui (the GUI imports it, not the reverse): the GUI command gives the
+feature that make_tessellation returns its view provider."""
 import os
 import tempfile
 
@@ -208,7 +211,8 @@ def _transaction(doc, title, work):
 def make_tessellation(doc, links, scheme=None, level=None, threshold=None, base_level=None, target_error=None):
     """Creates a tessellation feature of `links` [(object, [sub-element names])] in one transaction
     and recomputes it. Parameters left None come from the preferences. Raises SagittaError (and
-    leaves the document unchanged) for an empty selection, unsupported faces or bad parameters."""
+    leaves the document unchanged) for an empty selection, unsupported faces or bad parameters.
+    The feature has FreeCAD's default mesh view; SagittaGui.attach_view_provider adds the workbench's."""
     if not links:
         raise SagittaError("Select Part objects or faces to tessellate")
     shape_model(links)  # refuse unsupported selections before anything is added
@@ -217,10 +221,6 @@ def make_tessellation(doc, links, scheme=None, level=None, threshold=None, base_
     def work():
         obj = doc.addObject("Mesh::FeaturePython", "Tessellation")
         TessellationFeature(obj)
-        if FreeCAD.GuiUp:
-            import SagittaGui
-            SagittaGui.ViewProviderTessellation(obj.ViewObject)
-            obj.ViewObject.Lighting = "Two side"  # patch files orient their normals either way
         obj.Source = [(o, tuple(subs) if subs else "") for o, subs in links]
         obj.Scheme = scheme or prefs["scheme"]
         obj.Level = prefs["level"] if level is None else level

@@ -84,6 +84,13 @@ class ViewProviderTessellation:
         return None
 
 
+def attach_view_provider(obj):
+    """Gives a tessellation feature made by SagittaCore.make_tessellation the workbench's view: icon,
+    double-click editing, two-sided lighting."""
+    ViewProviderTessellation(obj.ViewObject)
+    obj.ViewObject.Lighting = "Two side"  # patch files orient their normals either way
+
+
 # ---------------------------------------------------------------------------------------------
 # Task panels
 
@@ -281,6 +288,7 @@ class TessellateCommand:
         try:
             links = [(o, s) for o, s in selected_links() if not SagittaCore.is_tessellation(o)]
             obj = SagittaCore.make_tessellation(FreeCAD.ActiveDocument, links)
+            attach_view_provider(obj)
             FreeCADGui.Selection.clearSelection()
             FreeCADGui.Selection.addSelection(obj)
             show_panel(TessellatePanel(obj))

@@ -128,6 +128,8 @@ def run():
     check(len(one) == 1 and one[0].Patches == 1, "Tessellate on Face1: one patch")
     panel = SagittaGui.active_panel
     check(isinstance(panel, SagittaGui.TessellatePanel), "Tessellate opens its task panel")
+    check(len(one) == 1 and isinstance(one[0].ViewObject.Proxy, SagittaGui.ViewProviderTessellation)
+          and one[0].ViewObject.Lighting == "Two side", "Tessellate gives the feature the workbench's view provider")
     panel.level.setValue(2)
     panel.accept()
     process_events()

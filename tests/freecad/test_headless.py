@@ -214,6 +214,23 @@ class HeadlessTest(unittest.TestCase):
         self.assertEqual(len(self.doc.Objects), len(names) + 1)
         self.doc.undo()
 
+    def test_core_never_imports_the_gui(self):
+        """SagittaCore imports no GUI module (the GUI imports Core, never the reverse): neither in its
+        source nor at run time after creating, validating and fitting a feature."""
+        import ast
+        with open(SagittaCore.__file__, encoding="utf-8") as f:
+            tree = ast.parse(f.read())
+        imported = {alias.name.split(".")[0] for node in ast.walk(tree) if isinstance(node, ast.Import)
+                    for alias in node.names}
+        imported |= {node.module.split(".")[0] for node in ast.walk(tree)
+                     if isinstance(node, ast.ImportFrom) and node.module}
+        for gui in ("SagittaGui", "FreeCADGui", "PySide"):
+            self.assertNotIn(gui, imported)
+        obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=1)
+        SagittaCore.validate_tessellation(obj, max_depth=2)
+        SagittaCore.fit_tessellation(obj, 0.05)
+        self.assertNotIn("SagittaGui", sys.modules)
+
     def test_wrong_selection_changes_nothing(self):
         mesh_obj = self.doc.addObject("Mesh::Feature", "NotAShape")
         self.doc.recompute()
