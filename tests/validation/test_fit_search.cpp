@@ -8,7 +8,7 @@
 // lower bounds > E: first from a few mesh points (branch-and-bound distance to the model), then from
 // a quick certification (depth budget 2); the rest get the full certification.
 //
-// Registered only without sanitizers (tests/fit/CMakeLists.txt): the teapot at 1e-3 needs
+// Registered only without sanitizers (tests/validation/CMakeLists.txt): the teapot at 1e-3 needs
 // certifications of ~110,000-triangle meshes, about a minute in all in Release.
 #include "sagitta/certify.hpp"
 #include "sagitta/esc.hpp"
