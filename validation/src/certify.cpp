@@ -147,13 +147,10 @@ struct Scratch {
   }
 };
 
-// The core bound: Bernstein coefficients of S(sum b_i q_i) - sum b_i X_i over the triangle by
-// blossoming. The tensor-product blossom with i copies of corner 0, j of corner 1 and k of corner 2
-// split into n u-arguments and m v-arguments (averaged over all splits, Vandermonde weights) gives
-// the triangular Bernstein coefficient c_ijk of the composition, exactly in exact arithmetic.
-double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scratch& s) {
-  const int n = P.n, m = P.m, N = n + m;
-  s.prepare(n, m);
+// u-blossom of every column for each u-triple, then the v-blossom of those for each (u-triple,
+// v-triple), into s.r.
+void blossom(const PatchData& P, const Vec2 q[3], Scratch& s) {
+  const int n = P.n, m = P.m;
   const size_t nu = s.tu.list.size(), nv = s.tv.list.size();
   double args[2 * kMaxDegree + 2];
   // u-blossom of every column for each u-triple.
@@ -186,7 +183,13 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
       s.r[a * nv + b] = s.work[0];
     }
   }
-  // Triangular coefficients of degree N.
+}
+
+// Triangular coefficients of degree n + m from the blossom values (into s.coef); returns the
+// smallest weight coefficient.
+double triangular_coefficients(const PatchData& P, Scratch& s) {
+  const int n = P.n, N = P.n + P.m;
+  const size_t nv = s.tv.list.size();
   const double inv_total = 1.0 / binomial(N, n);
   double wmin_poly = kInf;
   for (size_t g = 0; g < s.tn.list.size(); ++g) {
@@ -204,6 +207,18 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
     s.coef[g] = acc;
     wmin_poly = std::min(wmin_poly, acc[3]);
   }
+  return wmin_poly;
+}
+
+// The core bound: Bernstein coefficients of S(sum b_i q_i) - sum b_i X_i over the triangle by
+// blossoming. The tensor-product blossom with i copies of corner 0, j of corner 1 and k of corner 2
+// split into n u-arguments and m v-arguments (averaged over all splits, Vandermonde weights) gives
+// the triangular Bernstein coefficient c_ijk of the composition, exactly in exact arithmetic.
+double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scratch& s) {
+  const int n = P.n, m = P.m, N = n + m;
+  s.prepare(n, m);
+  blossom(P, q, s);
+  double wmin_poly = triangular_coefficients(P, s);
   Vec3 Xl[3];
   double xmag = 0.0;
   for (int l = 0; l < 3; ++l) {
