@@ -414,6 +414,94 @@ struct Leaf {
   int depth = 0;
 };
 
+// A leaf's corners in (u, v) and on the mesh triangle.
+struct LeafCorners {
+  Vec2 q[3];
+  Vec3 X[3];
+};
+
+// A leaf's bounds and the distances actually seen at its corners.
+struct LeafBounds {
+  double m2s = 0.0, s2m = 0.0;
+  double m2s_seen = 0.0, s2m_seen = 0.0;
+};
+
+// Mesh->surface: the leaf's corners matched to their projections on the surface; `lin` is the
+// leaf's bound in its own (u, v). Lowers b.m2s, sets b.m2s_seen and the candidate in res.
+void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin, double tau, const OtherPatches& others,
+                           bool own_uv_only, Scratch& s, LeafBounds& b, TriangleResult& res) {
+  const Vec2* q = c.q;
+  const Vec3* X = c.X;
+  Vec2 qp[3];
+  double residual[3];
+  for (int i = 0; i < 3; ++i) {
+    qp[i] = project(*P.patch, X[i], q[i]);
+    residual[i] = norm(X[i] - eval(*P.patch, qp[i]));
+  }
+  if (!own_uv_only) b.m2s = std::min(lin, composed_bound(P, qp, X, s));
+  if (b.m2s > tau && !others.empty()) {
+    // The leaf matched to another patch: sound for the distance to the model, and the only
+    // tight match where the triangle leaves its own patch for a neighbour (folds, seams).
+    Box leaf_box{glm::min(glm::min(X[0], X[1]), X[2]), glm::max(glm::max(X[0], X[1]), X[2])};
+    for (uint32_t o : *others.near) {
+      if (box_distance((*others.boxes)[o], leaf_box) >= b.m2s) continue;  // cannot do better
+      const PatchData& O = (*others.data)[o];
+      Vec2 qo[3];
+      for (int i = 0; i < 3; ++i) {
+        qo[i] = i == 0 ? project_unseeded(*O.patch, X[i]) : project(*O.patch, X[i], qo[i - 1]);
+        residual[i] = std::min(residual[i], norm(X[i] - eval(*O.patch, qo[i])));
+      }
+      b.m2s = std::min(b.m2s, composed_bound(O, qo, X, s));
+    }
+  }
+  for (int i = 0; i < 3; ++i) {
+    b.m2s_seen = std::max(b.m2s_seen, residual[i]);
+    if (residual[i] > res.m2s_est) {
+      res.m2s_est = residual[i];
+      res.m2s_point = X[i];
+      res.m2s_seed = qp[i];
+    }
+  }
+}
+
+// Surface->mesh: the leaf's surface corners matched to their closest points on the triangle T (or
+// on each of the given mesh triangles; all three corners on the same one, so the affine
+// interpolation stays on the mesh). Lowers b.s2m, sets b.s2m_seen and (unless s2m_only) the
+// candidate in res.
+void bound_surface_to_mesh(const PatchData& P, const LeafCorners& c, const std::array<Vec3, 3>& T, bool s2m_only,
+                           const std::vector<std::array<Vec3, 3>>* s2m_targets,
+                           const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest, Scratch& s,
+                           LeafBounds& b, TriangleResult& res) {
+  const Vec2* q = c.q;
+  Vec3 sp[3];
+  for (int i = 0; i < 3; ++i) sp[i] = eval(*P.patch, q[i]);
+  std::vector<std::array<Vec3, 3>> targets = s2m_targets ? *s2m_targets : std::vector<std::array<Vec3, 3>>{T};
+  if (nearest) {
+    // The mesh triangles nearest to each corner (found by the AABB tree) are candidates too.
+    for (int i = 0; i < 3; ++i) {
+      std::array<Vec3, 3> tri;
+      if (nearest(sp[i], tri) && std::find(targets.begin(), targets.end(), tri) == targets.end())
+        targets.push_back(tri);
+    }
+  }
+  double corner_distance[3] = {kInf, kInf, kInf};
+  for (const auto& target : targets) {
+    Vec3 Y[3];
+    for (int i = 0; i < 3; ++i) {
+      Y[i] = closest_on_triangle(sp[i], target[0], target[1], target[2]);
+      corner_distance[i] = std::min(corner_distance[i], norm(sp[i] - Y[i]));
+    }
+    b.s2m = std::min(b.s2m, composed_bound(P, q, Y, s));
+  }
+  for (int i = 0; i < 3; ++i) {
+    if (std::isfinite(corner_distance[i])) b.s2m_seen = std::max(b.s2m_seen, corner_distance[i]);
+    if (!s2m_only && corner_distance[i] > res.s2m_est) {  // a candidate for the lower bound
+      res.s2m_est = corner_distance[i];
+      res.s2m_uv = q[i];
+    }
+  }
+}
+
 // Refines one triangle; `tau` is the level below which a leaf is accepted.
 TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv, const std::array<Vec3, 3>& T,
                                double tau, double target_ratio, int max_depth, Scratch& s, bool s2m_only = false,
@@ -428,85 +516,24 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
     const Leaf leaf = stack.back();
     stack.pop_back();
     ++res.leaves;
-    Vec2 q[3];
-    Vec3 X[3];
+    LeafCorners c;
     for (int i = 0; i < 3; ++i) {
       const Vec3& b = leaf.b[i];
-      q[i] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
-      X[i] = b.x * T[0] + b.y * T[1] + b.z * T[2];
+      c.q[i] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
+      c.X[i] = b.x * T[0] + b.y * T[1] + b.z * T[2];
     }
-    const double lin = composed_bound(P, q, X, s);
-    double m2s = s2m_only ? 0.0 : lin, s2m = lin;
-    double m2s_seen = 0.0, s2m_seen = 0.0;  // distances found at the leaf's corners
-    if (lin > tau && !s2m_only) {
-      // Mesh->surface: the leaf's corners matched to their projections on the surface.
-      Vec2 qp[3];
-      double residual[3];
-      for (int i = 0; i < 3; ++i) {
-        qp[i] = project(*P.patch, X[i], q[i]);
-        residual[i] = norm(X[i] - eval(*P.patch, qp[i]));
-      }
-      if (!own_uv_only) m2s = std::min(lin, composed_bound(P, qp, X, s));
-      if (m2s > tau && !others.empty()) {
-        // The leaf matched to another patch: sound for the distance to the model, and the only
-        // tight match where the triangle leaves its own patch for a neighbour (folds, seams).
-        Box leaf_box{glm::min(glm::min(X[0], X[1]), X[2]), glm::max(glm::max(X[0], X[1]), X[2])};
-        for (uint32_t c : *others.near) {
-          if (box_distance((*others.boxes)[c], leaf_box) >= m2s) continue;  // cannot do better
-          const PatchData& O = (*others.data)[c];
-          Vec2 qo[3];
-          for (int i = 0; i < 3; ++i) {
-            qo[i] = i == 0 ? project_unseeded(*O.patch, X[i]) : project(*O.patch, X[i], qo[i - 1]);
-            residual[i] = std::min(residual[i], norm(X[i] - eval(*O.patch, qo[i])));
-          }
-          m2s = std::min(m2s, composed_bound(O, qo, X, s));
-        }
-      }
-      for (int i = 0; i < 3; ++i) {
-        m2s_seen = std::max(m2s_seen, residual[i]);
-        if (residual[i] > res.m2s_est) {
-          res.m2s_est = residual[i];
-          res.m2s_point = X[i];
-          res.m2s_seed = qp[i];
-        }
-      }
-    }
-    if (lin > tau) {
-      // Surface->mesh: the leaf's surface corners matched to their closest points on the triangle
-      // (or on each of the given mesh triangles; all three corners on the same one, so the affine
-      // interpolation stays on the mesh).
-      Vec3 sp[3];
-      for (int i = 0; i < 3; ++i) sp[i] = eval(*P.patch, q[i]);
-      std::vector<std::array<Vec3, 3>> targets = s2m_targets ? *s2m_targets : std::vector<std::array<Vec3, 3>>{T};
-      if (nearest) {
-        // The mesh triangles nearest to each corner (found by the AABB tree) are candidates too.
-        for (int i = 0; i < 3; ++i) {
-          std::array<Vec3, 3> tri;
-          if (nearest(sp[i], tri) && std::find(targets.begin(), targets.end(), tri) == targets.end()) targets.push_back(tri);
-        }
-      }
-      double corner_distance[3] = {kInf, kInf, kInf};
-      for (const auto& target : targets) {
-        Vec3 Y[3];
-        for (int i = 0; i < 3; ++i) {
-          Y[i] = closest_on_triangle(sp[i], target[0], target[1], target[2]);
-          corner_distance[i] = std::min(corner_distance[i], norm(sp[i] - Y[i]));
-        }
-        s2m = std::min(s2m, composed_bound(P, q, Y, s));
-      }
-      for (int i = 0; i < 3; ++i) {
-        if (std::isfinite(corner_distance[i])) s2m_seen = std::max(s2m_seen, corner_distance[i]);
-        if (!s2m_only && corner_distance[i] > res.s2m_est) {  // a candidate for the lower bound
-          res.s2m_est = corner_distance[i];
-          res.s2m_uv = q[i];
-        }
-      }
-    }
+    const double lin = composed_bound(P, c.q, c.X, s);
+    LeafBounds b;
+    b.m2s = s2m_only ? 0.0 : lin;
+    b.s2m = lin;
+    if (lin > tau && !s2m_only) bound_mesh_to_surface(P, c, lin, tau, others, own_uv_only, s, b, res);
+    if (lin > tau) bound_surface_to_mesh(P, c, T, s2m_only, s2m_targets, nearest, s, b, res);
     // A leaf is done when each bound is below the global target or within the target ratio of a
     // distance actually seen at its corners (then refining cannot tighten the overall interval
     // by more than that ratio, and a direction whose distance exceeds the other's estimate does
     // not refine to the depth budget for nothing).
-    const bool done = m2s <= std::max(tau, target_ratio * m2s_seen) && s2m <= std::max(tau, target_ratio * s2m_seen);
+    const bool done =
+        b.m2s <= std::max(tau, target_ratio * b.m2s_seen) && b.s2m <= std::max(tau, target_ratio * b.s2m_seen);
     if (!done && leaf.depth < max_depth) {
       const Vec3 m01 = 0.5 * (leaf.b[0] + leaf.b[1]), m12 = 0.5 * (leaf.b[1] + leaf.b[2]),
                  m20 = 0.5 * (leaf.b[2] + leaf.b[0]);
@@ -518,8 +545,8 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
       continue;
     }
     if (!done) res.exhausted = true;
-    res.m2s = std::max(res.m2s, m2s);
-    res.s2m = std::max(res.s2m, s2m);
+    res.m2s = std::max(res.m2s, b.m2s);
+    res.s2m = std::max(res.s2m, b.s2m);
   }
   return res;
 }
