@@ -834,7 +834,7 @@ double certified_distance_lower_conditioned(const Model& model, const Vec3& x, d
 
 }  // namespace
 
-double certified_distance_lower(const Model& model, const Vec3& x, double target, int node_budget) {
+double detail::certified_distance_lower(const Model& model, const Vec3& x, double target, int node_budget) {
   if (!(target > 0.0)) return 0.0;
   return detail::lower_with_safe_arithmetic(model, x, [&](const Model& m, const Vec3& y, double distance_scale) {
     return certified_distance_lower_conditioned(m, y, target * distance_scale, node_budget);
@@ -855,7 +855,7 @@ void certify_lowers(const Model& model, const Tessellation& mesh, const std::vec
   std::vector<double> low(k, 0.0);
   tbb::parallel_for(size_t(0), k, [&](size_t i) {
     const TriangleResult& r = results[order[i]];
-    low[i] = certified_distance_lower(model, r.m2s_point, r.m2s_est * 0.995, options.lower_node_budget);
+    low[i] = detail::certified_distance_lower(model, r.m2s_point, r.m2s_est * 0.995, options.lower_node_budget);
   });
   for (size_t i = 0; i < k; ++i) {
     if (low[i] > report.mesh_to_surface.lower) {

@@ -141,7 +141,7 @@ void mesh_to_surface_lower(const Model& model, const Tessellation& mesh, const d
   std::vector<double> low(k);
   tbb::parallel_for(size_t(0), k, [&](size_t i) {
     const size_t j = order[i];
-    low[i] = certified_distance_lower(model, points[j], d[j] + eps_m2s, options.certify.lower_node_budget);
+    low[i] = detail::certified_distance_lower(model, points[j], d[j] + eps_m2s, options.certify.lower_node_budget);
   });
   for (size_t i = 0; i < k; ++i) {
     if (low[i] > report.mesh_to_surface.lower) {
