@@ -1117,7 +1117,8 @@ void set_hausdorff(DistanceReport& report) {
       m2s_wins ? report.mesh_to_surface.witness_patch : report.surface_to_mesh.witness_patch;
 }
 
-// certify_distance on a well-conditioned model and mesh (see conditioned()).
+// certify_distance on a model and mesh in the safe range (certify_distance runs it through
+// detail::with_safe_arithmetic, conditioning.hpp).
 DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh, const CertifyOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   DistanceReport report;
