@@ -102,7 +102,7 @@ struct Nodes {
 
 // The nodes read from the triangulation; sets out.max_node_offset, the largest distance of a node
 // from the patch point its (u, v) maps to.
-Nodes read_nodes(const Handle(Poly_Triangulation) & tri, const TopLoc_Location& loc, const PatchGrid& grid,
+Nodes read_nodes(const opencascade::handle<Poly_Triangulation>& tri, const TopLoc_Location& loc, const PatchGrid& grid,
                  const Model& model, TrimmedFacePeer& out) {
   const gp_Trsf trsf = loc.Transformation();
   const int nodes = tri->NbNodes();
@@ -259,7 +259,7 @@ struct FaceTriangles {
 // Each (u, v) triangle is shown inside D when: its corners and edge midpoints are not OUT, no edge
 // crosses a p-curve away from its own end points, and no p-curve sample lies strictly inside it
 // (a hole or a bay of the boundary inside the triangle). Sets out.uv_area and out.triangles_outside.
-FaceTriangles classify_triangles(const Handle(Poly_Triangulation) & tri, const Nodes& nd, bool reversed,
+FaceTriangles classify_triangles(const opencascade::handle<Poly_Triangulation>& tri, const Nodes& nd, bool reversed,
                                  TrimmedDomain& domain, TrimmedFacePeer& out) {
   FaceTriangles ft;
   double signed_min = 0.0, signed_max = 0.0;
