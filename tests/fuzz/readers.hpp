@@ -27,7 +27,7 @@ inline void validate_model_and_mesh(const std::string& bytes, const std::string&
   const size_t split = bytes.find("\n%%\n");
   if (split == std::string::npos) throw InputError(name + ": no line \"%%\" between the model and the mesh");
   const Model model = io::parse_bpt(bytes.substr(0, split + 1), name);
-  const Tessellation mesh = io::parse_mesh(bytes.substr(split + 4), name + " (mesh part)", ".obj");
+  const Tessellation mesh = io::detail::parse_mesh(bytes.substr(split + 4), name + " (mesh part)", ".obj");
   if (model.patches.size() > 8 || mesh.triangles.size() > 512) return;
   const Topology topology = build_topology(model);
   (void)check_mesh_topology(mesh, &model, &topology);
@@ -52,11 +52,11 @@ inline void parse_with(const std::string& reader, const std::string& bytes, cons
   if (reader == "bpt") {
     (void)io::parse_bpt(bytes, name);
   } else if (reader == "rib") {
-    (void)io::parse_rib(bytes, name);
+    (void)io::detail::parse_rib(bytes, name);
   } else if (reader == "obj" || reader == "ply" || reader == "stl") {
-    (void)io::parse_mesh(bytes, name, "." + reader);
+    (void)io::detail::parse_mesh(bytes, name, "." + reader);
   } else if (reader == "scene") {
-    (void)io::parse_scene(bytes, name);
+    (void)io::detail::parse_scene(bytes, name);
   } else if (reader == "validate") {
     validate_model_and_mesh(bytes, name);
   } else {

@@ -307,7 +307,7 @@ TEST(Certify, DistanceLowerBoundIsSound) {
         for (int j = 0; j <= 16; ++j) best = std::min(best, newton_distance(p, {x.x, x.y, x.z}, i / 16.0L, j / 16.0L));
       }
     }
-    const double low = certified_distance_lower(model, x, static_cast<double>(best), 200000);
+    const double low = detail::certified_distance_lower(model, x, static_cast<double>(best), 200000);
     EXPECT_LE(low, static_cast<double>(best) * (1 + 1e-12));
     EXPECT_GE(low, 0.98 * static_cast<double>(best));
   }

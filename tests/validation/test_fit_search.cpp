@@ -61,7 +61,7 @@ bool certainly_fails(const Model& model, const Tessellation& mesh, double target
     const double e = estimate[order[i]];
     if (e <= target) break;
     // Ask only for what the estimate promises, so the branch-and-bound can stop early.
-    if (certified_distance_lower(model, worst_point[order[i]], 0.995 * e, 20000) > target) return true;
+    if (detail::certified_distance_lower(model, worst_point[order[i]], 0.995 * e, 20000) > target) return true;
   }
   return false;
 }

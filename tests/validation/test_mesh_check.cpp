@@ -173,7 +173,7 @@ TEST(MeshCheck, PlantedDefectsInObjFiles) {
     Tessellation mesh = uniform(model, 4);
     c.plant(mesh);
     const std::string path = (dir / "planted.obj").string();
-    io::write_obj(mesh, path);
+    io::detail::write_obj(mesh, path);
     const Tessellation read = io::read_mesh(path);
     ASSERT_FALSE(read.has_surface());
     const TopologyReport r = check_mesh_topology(read, &model, &topo);
@@ -295,7 +295,7 @@ TEST(MeshCheck, TeapotFreeBoundaryIsModelBoundary) {
   EXPECT_EQ(with_uv.t_junctions, 0u);
   // The same mesh through an OBJ file (no (u, v)): classified by distance to the free curves.
   const auto file = std::filesystem::temp_directory_path() / ("sagitta_teapot_" + std::to_string(::getpid()) + ".obj");
-  io::write_obj(mesh, file.string());
+  io::detail::write_obj(mesh, file.string());
   const TopologyReport without = check_mesh_topology(io::read_mesh(file.string()), &model, &topo);
   std::filesystem::remove(file);
   EXPECT_EQ(without.model_boundary_edges, 16u * 8u);

@@ -147,13 +147,10 @@ struct Scratch {
   }
 };
 
-// The core bound: Bernstein coefficients of S(sum b_i q_i) - sum b_i X_i over the triangle by
-// blossoming. The tensor-product blossom with i copies of corner 0, j of corner 1 and k of corner 2
-// split into n u-arguments and m v-arguments (averaged over all splits, Vandermonde weights) gives
-// the triangular Bernstein coefficient c_ijk of the composition, exactly in exact arithmetic.
-double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scratch& s) {
-  const int n = P.n, m = P.m, N = n + m;
-  s.prepare(n, m);
+// u-blossom of every column for each u-triple, then the v-blossom of those for each (u-triple,
+// v-triple), into s.r.
+void blossom(const PatchData& P, const Vec2 q[3], Scratch& s) {
+  const int n = P.n, m = P.m;
   const size_t nu = s.tu.list.size(), nv = s.tv.list.size();
   double args[2 * kMaxDegree + 2];
   // u-blossom of every column for each u-triple.
@@ -186,7 +183,13 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
       s.r[a * nv + b] = s.work[0];
     }
   }
-  // Triangular coefficients of degree N.
+}
+
+// Triangular coefficients of degree n + m from the blossom values (into s.coef); returns the
+// smallest weight coefficient.
+double triangular_coefficients(const PatchData& P, Scratch& s) {
+  const int n = P.n, N = P.n + P.m;
+  const size_t nv = s.tv.list.size();
   const double inv_total = 1.0 / binomial(N, n);
   double wmin_poly = kInf;
   for (size_t g = 0; g < s.tn.list.size(); ++g) {
@@ -204,6 +207,18 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
     s.coef[g] = acc;
     wmin_poly = std::min(wmin_poly, acc[3]);
   }
+  return wmin_poly;
+}
+
+// The core bound: Bernstein coefficients of S(sum b_i q_i) - sum b_i X_i over the triangle by
+// blossoming. The tensor-product blossom with i copies of corner 0, j of corner 1 and k of corner 2
+// split into n u-arguments and m v-arguments (averaged over all splits, Vandermonde weights) gives
+// the triangular Bernstein coefficient c_ijk of the composition, exactly in exact arithmetic.
+double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scratch& s) {
+  const int n = P.n, m = P.m, N = n + m;
+  s.prepare(n, m);
+  blossom(P, q, s);
+  double wmin_poly = triangular_coefficients(P, s);
   Vec3 Xl[3];
   double xmag = 0.0;
   for (int l = 0; l < 3; ++l) {
@@ -399,6 +414,94 @@ struct Leaf {
   int depth = 0;
 };
 
+// A leaf's corners in (u, v) and on the mesh triangle.
+struct LeafCorners {
+  Vec2 q[3];
+  Vec3 X[3];
+};
+
+// A leaf's bounds and the distances actually seen at its corners.
+struct LeafBounds {
+  double m2s = 0.0, s2m = 0.0;
+  double m2s_seen = 0.0, s2m_seen = 0.0;
+};
+
+// Mesh->surface: the leaf's corners matched to their projections on the surface; `lin` is the
+// leaf's bound in its own (u, v). Lowers b.m2s, sets b.m2s_seen and the candidate in res.
+void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin, double tau, const OtherPatches& others,
+                           bool own_uv_only, Scratch& s, LeafBounds& b, TriangleResult& res) {
+  const Vec2* q = c.q;
+  const Vec3* X = c.X;
+  Vec2 qp[3];
+  double residual[3];
+  for (int i = 0; i < 3; ++i) {
+    qp[i] = project(*P.patch, X[i], q[i]);
+    residual[i] = norm(X[i] - eval(*P.patch, qp[i]));
+  }
+  if (!own_uv_only) b.m2s = std::min(lin, composed_bound(P, qp, X, s));
+  if (b.m2s > tau && !others.empty()) {
+    // The leaf matched to another patch: sound for the distance to the model, and the only
+    // tight match where the triangle leaves its own patch for a neighbour (folds, seams).
+    Box leaf_box{glm::min(glm::min(X[0], X[1]), X[2]), glm::max(glm::max(X[0], X[1]), X[2])};
+    for (uint32_t o : *others.near) {
+      if (box_distance((*others.boxes)[o], leaf_box) >= b.m2s) continue;  // cannot do better
+      const PatchData& O = (*others.data)[o];
+      Vec2 qo[3];
+      for (int i = 0; i < 3; ++i) {
+        qo[i] = i == 0 ? project_unseeded(*O.patch, X[i]) : project(*O.patch, X[i], qo[i - 1]);
+        residual[i] = std::min(residual[i], norm(X[i] - eval(*O.patch, qo[i])));
+      }
+      b.m2s = std::min(b.m2s, composed_bound(O, qo, X, s));
+    }
+  }
+  for (int i = 0; i < 3; ++i) {
+    b.m2s_seen = std::max(b.m2s_seen, residual[i]);
+    if (residual[i] > res.m2s_est) {
+      res.m2s_est = residual[i];
+      res.m2s_point = X[i];
+      res.m2s_seed = qp[i];
+    }
+  }
+}
+
+// Surface->mesh: the leaf's surface corners matched to their closest points on the triangle T (or
+// on each of the given mesh triangles; all three corners on the same one, so the affine
+// interpolation stays on the mesh). Lowers b.s2m, sets b.s2m_seen and (unless s2m_only) the
+// candidate in res.
+void bound_surface_to_mesh(const PatchData& P, const LeafCorners& c, const std::array<Vec3, 3>& T, bool s2m_only,
+                           const std::vector<std::array<Vec3, 3>>* s2m_targets,
+                           const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest, Scratch& s,
+                           LeafBounds& b, TriangleResult& res) {
+  const Vec2* q = c.q;
+  Vec3 sp[3];
+  for (int i = 0; i < 3; ++i) sp[i] = eval(*P.patch, q[i]);
+  std::vector<std::array<Vec3, 3>> targets = s2m_targets ? *s2m_targets : std::vector<std::array<Vec3, 3>>{T};
+  if (nearest) {
+    // The mesh triangles nearest to each corner (found by the AABB tree) are candidates too.
+    for (int i = 0; i < 3; ++i) {
+      std::array<Vec3, 3> tri;
+      if (nearest(sp[i], tri) && std::find(targets.begin(), targets.end(), tri) == targets.end())
+        targets.push_back(tri);
+    }
+  }
+  double corner_distance[3] = {kInf, kInf, kInf};
+  for (const auto& target : targets) {
+    Vec3 Y[3];
+    for (int i = 0; i < 3; ++i) {
+      Y[i] = closest_on_triangle(sp[i], target[0], target[1], target[2]);
+      corner_distance[i] = std::min(corner_distance[i], norm(sp[i] - Y[i]));
+    }
+    b.s2m = std::min(b.s2m, composed_bound(P, q, Y, s));
+  }
+  for (int i = 0; i < 3; ++i) {
+    if (std::isfinite(corner_distance[i])) b.s2m_seen = std::max(b.s2m_seen, corner_distance[i]);
+    if (!s2m_only && corner_distance[i] > res.s2m_est) {  // a candidate for the lower bound
+      res.s2m_est = corner_distance[i];
+      res.s2m_uv = q[i];
+    }
+  }
+}
+
 // Refines one triangle; `tau` is the level below which a leaf is accepted.
 TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv, const std::array<Vec3, 3>& T,
                                double tau, double target_ratio, int max_depth, Scratch& s, bool s2m_only = false,
@@ -413,85 +516,24 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
     const Leaf leaf = stack.back();
     stack.pop_back();
     ++res.leaves;
-    Vec2 q[3];
-    Vec3 X[3];
+    LeafCorners c;
     for (int i = 0; i < 3; ++i) {
       const Vec3& b = leaf.b[i];
-      q[i] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
-      X[i] = b.x * T[0] + b.y * T[1] + b.z * T[2];
+      c.q[i] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
+      c.X[i] = b.x * T[0] + b.y * T[1] + b.z * T[2];
     }
-    const double lin = composed_bound(P, q, X, s);
-    double m2s = s2m_only ? 0.0 : lin, s2m = lin;
-    double m2s_seen = 0.0, s2m_seen = 0.0;  // distances found at the leaf's corners
-    if (lin > tau && !s2m_only) {
-      // Mesh->surface: the leaf's corners matched to their projections on the surface.
-      Vec2 qp[3];
-      double residual[3];
-      for (int i = 0; i < 3; ++i) {
-        qp[i] = project(*P.patch, X[i], q[i]);
-        residual[i] = norm(X[i] - eval(*P.patch, qp[i]));
-      }
-      if (!own_uv_only) m2s = std::min(lin, composed_bound(P, qp, X, s));
-      if (m2s > tau && !others.empty()) {
-        // The leaf matched to another patch: sound for the distance to the model, and the only
-        // tight match where the triangle leaves its own patch for a neighbour (folds, seams).
-        Box leaf_box{glm::min(glm::min(X[0], X[1]), X[2]), glm::max(glm::max(X[0], X[1]), X[2])};
-        for (uint32_t c : *others.near) {
-          if (box_distance((*others.boxes)[c], leaf_box) >= m2s) continue;  // cannot do better
-          const PatchData& O = (*others.data)[c];
-          Vec2 qo[3];
-          for (int i = 0; i < 3; ++i) {
-            qo[i] = i == 0 ? project_unseeded(*O.patch, X[i]) : project(*O.patch, X[i], qo[i - 1]);
-            residual[i] = std::min(residual[i], norm(X[i] - eval(*O.patch, qo[i])));
-          }
-          m2s = std::min(m2s, composed_bound(O, qo, X, s));
-        }
-      }
-      for (int i = 0; i < 3; ++i) {
-        m2s_seen = std::max(m2s_seen, residual[i]);
-        if (residual[i] > res.m2s_est) {
-          res.m2s_est = residual[i];
-          res.m2s_point = X[i];
-          res.m2s_seed = qp[i];
-        }
-      }
-    }
-    if (lin > tau) {
-      // Surface->mesh: the leaf's surface corners matched to their closest points on the triangle
-      // (or on each of the given mesh triangles; all three corners on the same one, so the affine
-      // interpolation stays on the mesh).
-      Vec3 sp[3];
-      for (int i = 0; i < 3; ++i) sp[i] = eval(*P.patch, q[i]);
-      std::vector<std::array<Vec3, 3>> targets = s2m_targets ? *s2m_targets : std::vector<std::array<Vec3, 3>>{T};
-      if (nearest) {
-        // The mesh triangles nearest to each corner (found by the AABB tree) are candidates too.
-        for (int i = 0; i < 3; ++i) {
-          std::array<Vec3, 3> tri;
-          if (nearest(sp[i], tri) && std::find(targets.begin(), targets.end(), tri) == targets.end()) targets.push_back(tri);
-        }
-      }
-      double corner_distance[3] = {kInf, kInf, kInf};
-      for (const auto& target : targets) {
-        Vec3 Y[3];
-        for (int i = 0; i < 3; ++i) {
-          Y[i] = closest_on_triangle(sp[i], target[0], target[1], target[2]);
-          corner_distance[i] = std::min(corner_distance[i], norm(sp[i] - Y[i]));
-        }
-        s2m = std::min(s2m, composed_bound(P, q, Y, s));
-      }
-      for (int i = 0; i < 3; ++i) {
-        if (std::isfinite(corner_distance[i])) s2m_seen = std::max(s2m_seen, corner_distance[i]);
-        if (!s2m_only && corner_distance[i] > res.s2m_est) {  // a candidate for the lower bound
-          res.s2m_est = corner_distance[i];
-          res.s2m_uv = q[i];
-        }
-      }
-    }
+    const double lin = composed_bound(P, c.q, c.X, s);
+    LeafBounds b;
+    b.m2s = s2m_only ? 0.0 : lin;
+    b.s2m = lin;
+    if (lin > tau && !s2m_only) bound_mesh_to_surface(P, c, lin, tau, others, own_uv_only, s, b, res);
+    if (lin > tau) bound_surface_to_mesh(P, c, T, s2m_only, s2m_targets, nearest, s, b, res);
     // A leaf is done when each bound is below the global target or within the target ratio of a
     // distance actually seen at its corners (then refining cannot tighten the overall interval
     // by more than that ratio, and a direction whose distance exceeds the other's estimate does
     // not refine to the depth budget for nothing).
-    const bool done = m2s <= std::max(tau, target_ratio * m2s_seen) && s2m <= std::max(tau, target_ratio * s2m_seen);
+    const bool done =
+        b.m2s <= std::max(tau, target_ratio * b.m2s_seen) && b.s2m <= std::max(tau, target_ratio * b.s2m_seen);
     if (!done && leaf.depth < max_depth) {
       const Vec3 m01 = 0.5 * (leaf.b[0] + leaf.b[1]), m12 = 0.5 * (leaf.b[1] + leaf.b[2]),
                  m20 = 0.5 * (leaf.b[2] + leaf.b[0]);
@@ -503,8 +545,8 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
       continue;
     }
     if (!done) res.exhausted = true;
-    res.m2s = std::max(res.m2s, m2s);
-    res.s2m = std::max(res.s2m, s2m);
+    res.m2s = std::max(res.m2s, b.m2s);
+    res.s2m = std::max(res.s2m, b.s2m);
   }
   return res;
 }
@@ -792,7 +834,7 @@ double certified_distance_lower_conditioned(const Model& model, const Vec3& x, d
 
 }  // namespace
 
-double certified_distance_lower(const Model& model, const Vec3& x, double target, int node_budget) {
+double detail::certified_distance_lower(const Model& model, const Vec3& x, double target, int node_budget) {
   if (!(target > 0.0)) return 0.0;
   return detail::lower_with_safe_arithmetic(model, x, [&](const Model& m, const Vec3& y, double distance_scale) {
     return certified_distance_lower_conditioned(m, y, target * distance_scale, node_budget);
@@ -813,7 +855,7 @@ void certify_lowers(const Model& model, const Tessellation& mesh, const std::vec
   std::vector<double> low(k, 0.0);
   tbb::parallel_for(size_t(0), k, [&](size_t i) {
     const TriangleResult& r = results[order[i]];
-    low[i] = certified_distance_lower(model, r.m2s_point, r.m2s_est * 0.995, options.lower_node_budget);
+    low[i] = detail::certified_distance_lower(model, r.m2s_point, r.m2s_est * 0.995, options.lower_node_budget);
   });
   for (size_t i = 0; i < k; ++i) {
     if (low[i] > report.mesh_to_surface.lower) {
@@ -852,7 +894,231 @@ void certify_lowers(const Model& model, const Tessellation& mesh, const std::vec
 
 namespace {
 
-// certify_distance on a well-conditioned model and mesh (see conditioned()).
+std::array<Vec3, 3> triangle_corners(const Tessellation& mesh, size_t t) {
+  const Triangle& tri = mesh.triangles[t];
+  return std::array<Vec3, 3>{mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
+}
+
+// Per triangle: the largest projection residual seen, where (in space and in (u, v)) it was seen.
+struct Estimates {
+  std::vector<double> value;
+  std::vector<Vec3> point;
+  std::vector<Vec2> uv;
+};
+
+// Pass 1: an estimate of the distance (projection residuals at centroids and edge midpoints),
+// which sets the refinement target.
+Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchData>& pd) {
+  const size_t count = mesh.triangles.size();
+  Estimates est;
+  est.value.assign(count, 0.0);
+  est.point.resize(count);
+  est.uv.resize(count);
+  tbb::parallel_for(size_t(0), count, [&](size_t t) {
+    const auto T = triangle_corners(mesh, t);
+    const auto& uv = mesh.triangle_uv[t];
+    const BezierPatch& patch = *pd[mesh.triangle_patch[t]].patch;
+    const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
+    for (const Vec3& b : bs) {
+      const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
+      const Vec2 q = project(patch, x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
+      const double e = norm(x - eval(patch, q));
+      if (e >= est.value[t]) {
+        est.value[t] = e;
+        est.point[t] = x;
+        est.uv[t] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
+      }
+    }
+  });
+  return est;
+}
+
+// Patches near each triangle other than its own (control boxes within 1.5 times the triangle's
+// own-patch estimate: a patch farther away than that cannot be the closer one), found by CGAL's
+// box intersection; each list sorted.
+std::vector<std::vector<uint32_t>> near_patches(const Model& model, const Tessellation& mesh, const Estimates& est,
+                                                const std::vector<Box>& patch_boxes) {
+  const size_t count = mesh.triangles.size();
+  std::vector<std::vector<uint32_t>> near(count);
+  using IdBox = CGAL::Box_intersection_d::Box_with_info_d<double, 3, size_t>;
+  const double floor = 1e-12 * model_box(model).diagonal();
+  std::vector<IdBox> tri_boxes, surface_boxes;
+  for (size_t t = 0; t < count; ++t) {
+    if (!(est.value[t] > floor)) continue;
+    const auto T = triangle_corners(mesh, t);
+    const double r = 1.5 * est.value[t];
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min({T[0][k], T[1][k], T[2][k]}) - r;
+      hi[k] = std::max({T[0][k], T[1][k], T[2][k]}) + r;
+    }
+    tri_boxes.emplace_back(lo, hi, t);
+  }
+  for (size_t p = 0; p < model.patches.size(); ++p) {
+    double lo[3] = {patch_boxes[p].lo.x, patch_boxes[p].lo.y, patch_boxes[p].lo.z};
+    double hi[3] = {patch_boxes[p].hi.x, patch_boxes[p].hi.y, patch_boxes[p].hi.z};
+    surface_boxes.emplace_back(lo, hi, p);
+  }
+  CGAL::box_intersection_d(tri_boxes.begin(), tri_boxes.end(), surface_boxes.begin(), surface_boxes.end(),
+                           [&](const IdBox& a, const IdBox& b) {
+                             if (b.info() != mesh.triangle_patch[a.info()])
+                               near[a.info()].push_back(static_cast<uint32_t>(b.info()));
+                           });
+  for (auto& list : near) std::sort(list.begin(), list.end());
+  return near;
+}
+
+// The estimates become distances to the model, not just the own patch. Only the largest estimates
+// matter (they set the refinement target): visit triangles by decreasing own-patch estimate and
+// stop once the next cannot exceed the running maximum, since matching to more patches only lowers
+// an estimate.
+void match_estimates_to_model(const Model& model, const Tessellation& mesh, const std::vector<Box>& patch_boxes,
+                              const std::vector<std::vector<uint32_t>>& near, Estimates& est) {
+  const size_t count = mesh.triangles.size();
+  std::vector<size_t> by_estimate(count);
+  std::iota(by_estimate.begin(), by_estimate.end(), size_t(0));
+  std::sort(by_estimate.begin(), by_estimate.end(), [&](size_t a, size_t b) { return est.value[a] > est.value[b]; });
+  double running_max = 0.0;
+  for (size_t t : by_estimate) {
+    if (est.value[t] <= running_max) break;
+    if (near[t].empty()) {
+      running_max = est.value[t];
+      continue;
+    }
+    const auto T = triangle_corners(mesh, t);
+    const auto& uv = mesh.triangle_uv[t];
+    const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
+    double worst = 0.0;
+    for (const Vec3& b : bs) {
+      const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
+      const BezierPatch& own = model.patches[mesh.triangle_patch[t]];
+      const Vec2 q0 = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
+      double e = norm(x - eval(own, project(own, x, q0)));
+      for (uint32_t c : near[t]) {
+        if (box_distance(patch_boxes[c], x) >= e) continue;
+        const BezierPatch& other = model.patches[c];
+        e = std::min(e, norm(x - eval(other, project_unseeded(other, x))));
+      }
+      if (e >= worst) {
+        worst = e;
+        est.point[t] = x;
+      }
+    }
+    est.value[t] = worst;
+    running_max = std::max(running_max, worst);
+  }
+}
+
+// What pass 2 refines against: the patches' data and boxes, the other patches near each triangle,
+// the mesh's AABB tree, the refinement target tau.
+struct Refinement {
+  const Model& model;
+  const Tessellation& mesh;
+  const CertifyOptions& options;
+  const std::vector<PatchData>& pd;
+  const std::vector<Box>& patch_boxes;
+  const std::vector<std::vector<uint32_t>>& near;
+  const detail::MeshDistance& mesh_distance;
+  double tau;
+  // The mesh triangle nearest to p (false for an empty mesh).
+  bool nearest(const Vec3& p, std::array<Vec3, 3>& tri) const {
+    const int64_t t = mesh_distance.closest_triangle(p);
+    if (t < 0) return false;
+    tri = triangle_corners(mesh, static_cast<size_t>(t));
+    return true;
+  }
+};
+
+// Pass 2: every triangle refined; each keeps the larger of its pass-1 estimate and the refinement's
+// as the candidate for the lower bounds.
+std::vector<TriangleResult> refine_triangles(const Refinement& rf, const Estimates& est) {
+  const Tessellation& mesh = rf.mesh;
+  const CertifyOptions& options = rf.options;
+  const size_t count = mesh.triangles.size();
+  const auto nearest = [&](const Vec3& p, std::array<Vec3, 3>& tri) { return rf.nearest(p, tri); };
+  std::vector<TriangleResult> results(count);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 64), [&](const tbb::blocked_range<size_t>& range) {
+    Scratch s;
+    for (size_t t = range.begin(); t != range.end(); ++t) {
+      results[t] =
+          refine_triangle(rf.pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], triangle_corners(mesh, t), rf.tau,
+                          options.target_ratio, options.max_depth, s, false, nullptr, nearest,
+                          OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]}, static_cast<bool>(options.in_domain));
+      if (results[t].m2s_est < est.value[t]) {
+        results[t].m2s_est = est.value[t];
+        results[t].m2s_point = est.point[t];
+      }
+      if (results[t].s2m_est < est.value[t]) {
+        results[t].s2m_uv = est.uv[t];
+        results[t].s2m_est = est.value[t];
+      }
+    }
+  });
+  return results;
+}
+
+// Dropped degenerate triangles next to collapsed sides: surface->mesh only.
+std::vector<TriangleResult> refine_holes(const Refinement& rf, const std::vector<Hole>& holes) {
+  const CertifyOptions& options = rf.options;
+  const auto nearest = [&](const Vec3& p, std::array<Vec3, 3>& tri) { return rf.nearest(p, tri); };
+  std::vector<TriangleResult> hole_results(holes.size());
+  tbb::parallel_for(size_t(0), holes.size(), [&](size_t i) {
+    Scratch s;
+    hole_results[i] = refine_triangle(rf.pd[holes[i].patch], holes[i].uv, holes[i].X, rf.tau, options.target_ratio,
+                                      options.max_depth, s, true, &holes[i].neighbours, nearest);
+  });
+  return hole_results;
+}
+
+// The upper bounds of both directions over the triangles (and holes); fills the report's
+// per-triangle bounds, leaves and exhausted count.
+struct Uppers {
+  double m2s = 0.0, s2m = 0.0;
+};
+Uppers collect_uppers(const std::vector<TriangleResult>& results, const std::vector<TriangleResult>& hole_results,
+                      DistanceReport& report) {
+  Uppers u;
+  for (const TriangleResult& r : hole_results) {
+    u.s2m = std::max(u.s2m, r.s2m);
+    report.leaves += r.leaves;
+    report.budget_exhausted += r.exhausted ? 1 : 0;
+  }
+  for (size_t t = 0; t < results.size(); ++t) {
+    u.m2s = std::max(u.m2s, results[t].m2s);
+    u.s2m = std::max(u.s2m, results[t].s2m);
+    report.triangle_upper[t] = std::max(results[t].m2s, results[t].s2m);
+    report.leaves += results[t].leaves;
+    report.budget_exhausted += results[t].exhausted ? 1 : 0;
+  }
+  return u;
+}
+
+// The rounding term at the worst triangle's scale, for the report.
+double worst_triangle_rounding(const Tessellation& mesh, const std::vector<PatchData>& pd,
+                               const std::vector<double>& triangle_upper) {
+  const size_t worst =
+      static_cast<size_t>(std::max_element(triangle_upper.begin(), triangle_upper.end()) - triangle_upper.begin());
+  const auto T = triangle_corners(mesh, worst);
+  const PatchData& P = pd[mesh.triangle_patch[worst]];
+  const Vec3 X[3] = {T[0], T[1], T[2]};
+  double xmag = 0.0;
+  for (const Vec3& x : X) xmag = std::max(xmag, norm(x - P.origin));
+  return 8.0 * (P.n + P.m + 1 + 4) * kUnit * (P.hmag + P.wmax * xmag) / P.wmin + 4.0 * kUnit * P.lipschitz;
+}
+
+// The Hausdorff interval from the two one-sided ones; the witness of the larger lower bound.
+void set_hausdorff(DistanceReport& report) {
+  report.hausdorff.lower = std::max(report.mesh_to_surface.lower, report.surface_to_mesh.lower);
+  report.hausdorff.upper = std::max(report.mesh_to_surface.upper, report.surface_to_mesh.upper);
+  report.hausdorff.certified = report.mesh_to_surface.certified && report.surface_to_mesh.certified;
+  const bool m2s_wins = report.mesh_to_surface.lower >= report.surface_to_mesh.lower;
+  report.hausdorff.witness = m2s_wins ? report.mesh_to_surface.witness : report.surface_to_mesh.witness;
+  report.hausdorff.witness_patch =
+      m2s_wins ? report.mesh_to_surface.witness_patch : report.surface_to_mesh.witness_patch;
+}
+
+// certify_distance on a model and mesh in the safe range (certify_distance runs it through
+// detail::with_safe_arithmetic, conditioning.hpp).
 DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh, const CertifyOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   DistanceReport report;
@@ -865,182 +1131,41 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
   std::vector<PatchData> pd;
   pd.reserve(model.patches.size());
   for (const BezierPatch& p : model.patches) pd.push_back(make_patch_data(p));
-  auto corners = [&](size_t t) {
-    const Triangle& tri = mesh.triangles[t];
-    return std::array<Vec3, 3>{mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
-  };
-  // Pass 1: an estimate of the distance (projection residuals at centroids and edge midpoints),
-  // which sets the refinement target.
-  const size_t count = mesh.triangles.size();
-  std::vector<double> est(count, 0.0);
-  std::vector<Vec3> est_point(count);
-  std::vector<Vec2> est_uv(count);
-  tbb::parallel_for(size_t(0), count, [&](size_t t) {
-    const auto T = corners(t);
-    const auto& uv = mesh.triangle_uv[t];
-    const BezierPatch& patch = *pd[mesh.triangle_patch[t]].patch;
-    const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
-    for (const Vec3& b : bs) {
-      const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
-      const Vec2 q = project(patch, x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
-      const double e = norm(x - eval(patch, q));
-      if (e >= est[t]) {
-        est[t] = e;
-        est_point[t] = x;
-        est_uv[t] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
-      }
-    }
-  });
-  // Patches near each triangle other than its own (control boxes within 1.5 times the triangle's
-  // own-patch estimate: a patch farther away than that cannot be the closer one), found by CGAL's
-  // box intersection. The estimates then become distances to the model, not just the own patch.
+  Estimates est = own_patch_estimates(mesh, pd);
   std::vector<Box> patch_boxes(model.patches.size());
   for (size_t p = 0; p < model.patches.size(); ++p) patch_boxes[p] = control_box(model.patches[p]);
-  std::vector<std::vector<uint32_t>> near_patches(count);
+  std::vector<std::vector<uint32_t>> near(mesh.triangles.size());
   if (model.patches.size() > 1 && !options.in_domain) {
-    using IdBox = CGAL::Box_intersection_d::Box_with_info_d<double, 3, size_t>;
-    const double floor = 1e-12 * model_box(model).diagonal();
-    std::vector<IdBox> tri_boxes, surface_boxes;
-    for (size_t t = 0; t < count; ++t) {
-      if (!(est[t] > floor)) continue;
-      const auto T = corners(t);
-      const double r = 1.5 * est[t];
-      double lo[3], hi[3];
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min({T[0][k], T[1][k], T[2][k]}) - r;
-        hi[k] = std::max({T[0][k], T[1][k], T[2][k]}) + r;
-      }
-      tri_boxes.emplace_back(lo, hi, t);
-    }
-    for (size_t p = 0; p < model.patches.size(); ++p) {
-      double lo[3] = {patch_boxes[p].lo.x, patch_boxes[p].lo.y, patch_boxes[p].lo.z};
-      double hi[3] = {patch_boxes[p].hi.x, patch_boxes[p].hi.y, patch_boxes[p].hi.z};
-      surface_boxes.emplace_back(lo, hi, p);
-    }
-    CGAL::box_intersection_d(tri_boxes.begin(), tri_boxes.end(), surface_boxes.begin(), surface_boxes.end(),
-                             [&](const IdBox& a, const IdBox& b) {
-                               if (b.info() != mesh.triangle_patch[a.info()]) near_patches[a.info()].push_back(static_cast<uint32_t>(b.info()));
-                             });
-    for (auto& list : near_patches) std::sort(list.begin(), list.end());
-    // Only the largest estimates matter (they set the refinement target): visit triangles by
-    // decreasing own-patch estimate and stop once the next cannot exceed the running maximum,
-    // since matching to more patches only lowers an estimate.
-    std::vector<size_t> by_estimate(count);
-    std::iota(by_estimate.begin(), by_estimate.end(), size_t(0));
-    std::sort(by_estimate.begin(), by_estimate.end(), [&](size_t a, size_t b) { return est[a] > est[b]; });
-    double running_max = 0.0;
-    for (size_t t : by_estimate) {
-      if (est[t] <= running_max) break;
-      if (near_patches[t].empty()) {
-        running_max = est[t];
-        continue;
-      }
-      const auto T = corners(t);
-      const auto& uv = mesh.triangle_uv[t];
-      const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
-      double worst = 0.0;
-      for (const Vec3& b : bs) {
-        const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
-        const BezierPatch& own = model.patches[mesh.triangle_patch[t]];
-        const Vec2 q0 = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
-        double e = norm(x - eval(own, project(own, x, q0)));
-        for (uint32_t c : near_patches[t]) {
-          if (box_distance(patch_boxes[c], x) >= e) continue;
-          const BezierPatch& other = model.patches[c];
-          e = std::min(e, norm(x - eval(other, project_unseeded(other, x))));
-        }
-        if (e >= worst) {
-          worst = e;
-          est_point[t] = x;
-        }
-      }
-      est[t] = worst;
-      running_max = std::max(running_max, worst);
-    }
+    near = near_patches(model, mesh, est, patch_boxes);
+    match_estimates_to_model(model, mesh, patch_boxes, near, est);
   }
-  const double estimate = *std::max_element(est.begin(), est.end());
+  const double estimate = *std::max_element(est.value.begin(), est.value.end());
   // Refinement target; the floor (1e-12 of the model's size, near the rounding term) stops exact
   // meshes (planar patches) from refining to the depth budget for nothing.
   const double tau = std::max(options.target_ratio * estimate, 1e-12 * model_box(model).diagonal());
   // Pass 2: refinement.
   const detail::MeshDistance mesh_distance(mesh);
-  const auto nearest = [&](const Vec3& p, std::array<Vec3, 3>& tri) {
-    const int64_t t = mesh_distance.closest_triangle(p);
-    if (t < 0) return false;
-    tri = corners(static_cast<size_t>(t));
-    return true;
-  };
-  std::vector<TriangleResult> results(count);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 64), [&](const tbb::blocked_range<size_t>& range) {
-    Scratch s;
-    for (size_t t = range.begin(); t != range.end(); ++t) {
-      results[t] =
-          refine_triangle(pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], corners(t), tau, options.target_ratio, options.max_depth, s, false, nullptr, nearest,
-                          OtherPatches{&pd, &patch_boxes, &near_patches[t]}, static_cast<bool>(options.in_domain));
-      if (results[t].m2s_est < est[t]) {
-        results[t].m2s_est = est[t];
-        results[t].m2s_point = est_point[t];
-      }
-      if (results[t].s2m_est < est[t]) {
-        results[t].s2m_uv = est_uv[t];
-        results[t].s2m_est = est[t];
-      }
-    }
-  });
+  const Refinement rf{model, mesh, options, pd, patch_boxes, near, mesh_distance, tau};
+  const std::vector<TriangleResult> results = refine_triangles(rf, est);
   // Dropped degenerate triangles next to collapsed sides: surface->mesh only.
   // (Not with a restricted domain: there coverage is the caller's to prove.)
   const std::vector<Hole> holes = options.in_domain ? std::vector<Hole>{} : collapsed_side_holes(model, mesh);
-  std::vector<TriangleResult> hole_results(holes.size());
-  tbb::parallel_for(size_t(0), holes.size(), [&](size_t i) {
-    Scratch s;
-    hole_results[i] =
-        refine_triangle(pd[holes[i].patch], holes[i].uv, holes[i].X, tau, options.target_ratio, options.max_depth, s, true, &holes[i].neighbours, nearest);
-  });
-  double m2s = 0.0, s2m = 0.0;
-  for (const TriangleResult& r : hole_results) {
-    s2m = std::max(s2m, r.s2m);
-    report.leaves += r.leaves;
-    report.budget_exhausted += r.exhausted ? 1 : 0;
-  }
-  for (size_t t = 0; t < count; ++t) {
-    m2s = std::max(m2s, results[t].m2s);
-    s2m = std::max(s2m, results[t].s2m);
-    report.triangle_upper[t] = std::max(results[t].m2s, results[t].s2m);
-    report.leaves += results[t].leaves;
-    report.budget_exhausted += results[t].exhausted ? 1 : 0;
-  }
-  // The rounding term at the worst triangle's scale, for the report.
-  {
-    Scratch s;
-    const size_t worst = static_cast<size_t>(std::max_element(report.triangle_upper.begin(), report.triangle_upper.end()) -
-                                             report.triangle_upper.begin());
-    const auto T = corners(worst);
-    const PatchData& P = pd[mesh.triangle_patch[worst]];
-    const Vec2 q[3] = {Vec2(0.0), Vec2(0.0), Vec2(0.0)};
-    const Vec3 X[3] = {T[0], T[1], T[2]};
-    double xmag = 0.0;
-    for (const Vec3& x : X) xmag = std::max(xmag, norm(x - P.origin));
-    (void)q;
-    report.rounding = 8.0 * (P.n + P.m + 1 + 4) * kUnit * (P.hmag + P.wmax * xmag) / P.wmin + 4.0 * kUnit * P.lipschitz;
-  }
+  const std::vector<TriangleResult> hole_results = refine_holes(rf, holes);
+  const Uppers upper = collect_uppers(results, hole_results, report);
+  report.rounding = worst_triangle_rounding(mesh, pd, report.triangle_upper);
   if (options.in_domain) {
     report.coverage_note = "restricted domain: the caller checks that the triangles cover it";
-    report.surface_to_mesh_over_triangles = s2m;
+    report.surface_to_mesh_over_triangles = upper.s2m;
   } else {
     report.coverage_ok = check_coverage(model, mesh, holes, report.coverage_note);
   }
   report.holes = holes.size();
-  report.mesh_to_surface.upper = m2s;
+  report.mesh_to_surface.upper = upper.m2s;
   report.mesh_to_surface.certified = true;
-  report.surface_to_mesh.upper = report.coverage_ok ? s2m : kInf;
+  report.surface_to_mesh.upper = report.coverage_ok ? upper.s2m : kInf;
   report.surface_to_mesh.certified = report.coverage_ok;
   certify_lowers(model, mesh, results, options, mesh_distance, report);
-  report.hausdorff.lower = std::max(report.mesh_to_surface.lower, report.surface_to_mesh.lower);
-  report.hausdorff.upper = std::max(report.mesh_to_surface.upper, report.surface_to_mesh.upper);
-  report.hausdorff.certified = report.mesh_to_surface.certified && report.surface_to_mesh.certified;
-  const bool m2s_wins = report.mesh_to_surface.lower >= report.surface_to_mesh.lower;
-  report.hausdorff.witness = m2s_wins ? report.mesh_to_surface.witness : report.surface_to_mesh.witness;
-  report.hausdorff.witness_patch = m2s_wins ? report.mesh_to_surface.witness_patch : report.surface_to_mesh.witness_patch;
+  set_hausdorff(report);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
 }

@@ -120,7 +120,63 @@ double bounded_hausdorff(const SurfaceMesh& a, const SurfaceMesh& b, double erro
   }
 }
 
-DistanceReport certify_external_conditioned(const Model& model, const Tessellation& mesh, const ExternalOptions& options) {
+// Mesh -> surface lower bound: the mesh points farthest from the reference (vertices, edge
+// midpoints, centroids), certified against the exact surface by branch-and-bound.
+void mesh_to_surface_lower(const Model& model, const Tessellation& mesh, const detail::MeshDistance& to_reference,
+                           double eps_m2s, const ExternalOptions& options, DistanceReport& report) {
+  std::vector<Vec3> points;
+  for (const Triangle& t : mesh.triangles) {
+    const Vec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+    points.push_back((a + b + c) / 3.0);
+    points.push_back(0.5 * (a + b));
+    points.push_back(a);
+  }
+  std::vector<double> d(points.size());
+  tbb::parallel_for(size_t(0), points.size(), [&](size_t i) { d[i] = to_reference.distance(points[i]); });
+  const size_t k = std::min<size_t>(static_cast<size_t>(std::max(options.certify.lower_candidates, 1)), points.size());
+  std::vector<size_t> order(points.size());
+  std::iota(order.begin(), order.end(), size_t(0));
+  std::partial_sort(order.begin(), order.begin() + static_cast<long>(k), order.end(),
+                    [&](size_t a, size_t b) { return d[a] > d[b]; });
+  std::vector<double> low(k);
+  tbb::parallel_for(size_t(0), k, [&](size_t i) {
+    const size_t j = order[i];
+    low[i] = detail::certified_distance_lower(model, points[j], d[j] + eps_m2s, options.certify.lower_node_budget);
+  });
+  for (size_t i = 0; i < k; ++i) {
+    if (low[i] > report.mesh_to_surface.lower) {
+      report.mesh_to_surface.lower = low[i];
+      report.mesh_to_surface.witness = points[order[i]];
+    }
+  }
+}
+
+// Surface -> mesh lower bound: exact surface samples against the mesh (AABB tree), minus rounding.
+void surface_to_mesh_lower(const Model& model, const detail::MeshDistance& to_mesh, double rounding,
+                           const ExternalOptions& options, DistanceReport& report) {
+  const int n = std::max(options.surface_samples, 1);
+  for (uint32_t p = 0; p < model.patches.size(); ++p) {
+    const BezierPatch& patch = model.patches[p];
+    std::vector<double> best(static_cast<size_t>((n + 1) * (n + 1)));
+    std::vector<Vec3> where(best.size());
+    tbb::parallel_for(0, (n + 1) * (n + 1), [&](int s) {
+      const auto e = de_casteljau<double>(patch, double(s / (n + 1)) / n, double(s % (n + 1)) / n);
+      const Vec3 x(e[0], e[1], e[2]);
+      where[s] = x;
+      best[s] = std::max(0.0, to_mesh.distance(x) - to_mesh.rounding_bound(x) - rounding);
+    });
+    for (size_t s = 0; s < best.size(); ++s) {
+      if (best[s] > report.surface_to_mesh.lower) {
+        report.surface_to_mesh.lower = best[s];
+        report.surface_to_mesh.witness = where[s];
+        report.surface_to_mesh.witness_patch = p;
+      }
+    }
+  }
+}
+
+DistanceReport certify_external_conditioned(const Model& model, const Tessellation& mesh,
+                                            const ExternalOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   DistanceReport report;
   // Reference: uniform tessellation with its own certified interval.
@@ -156,53 +212,9 @@ DistanceReport certify_external_conditioned(const Model& model, const Tessellati
   report.rounding = rounding;
   report.leaves = ref.leaves;
 
-  // Lower bounds. Mesh -> surface: the mesh points farthest from the reference (vertices, edge
-  // midpoints, centroids), certified against the exact surface by branch-and-bound.
-  std::vector<Vec3> points;
-  for (const Triangle& t : mesh.triangles) {
-    const Vec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
-    points.push_back((a + b + c) / 3.0);
-    points.push_back(0.5 * (a + b));
-    points.push_back(a);
-  }
-  std::vector<double> d(points.size());
-  tbb::parallel_for(size_t(0), points.size(), [&](size_t i) { d[i] = to_reference.distance(points[i]); });
-  const size_t k = std::min<size_t>(static_cast<size_t>(std::max(options.certify.lower_candidates, 1)), points.size());
-  std::vector<size_t> order(points.size());
-  std::iota(order.begin(), order.end(), size_t(0));
-  std::partial_sort(order.begin(), order.begin() + static_cast<long>(k), order.end(),
-                    [&](size_t a, size_t b) { return d[a] > d[b]; });
-  std::vector<double> low(k);
-  tbb::parallel_for(size_t(0), k, [&](size_t i) {
-    const size_t j = order[i];
-    low[i] = certified_distance_lower(model, points[j], d[j] + eps_m2s, options.certify.lower_node_budget);
-  });
-  for (size_t i = 0; i < k; ++i) {
-    if (low[i] > report.mesh_to_surface.lower) {
-      report.mesh_to_surface.lower = low[i];
-      report.mesh_to_surface.witness = points[order[i]];
-    }
-  }
-  // Surface -> mesh: exact surface samples against the mesh (AABB tree), minus rounding.
-  const int n = std::max(options.surface_samples, 1);
-  for (uint32_t p = 0; p < model.patches.size(); ++p) {
-    const BezierPatch& patch = model.patches[p];
-    std::vector<double> best(static_cast<size_t>((n + 1) * (n + 1)));
-    std::vector<Vec3> where(best.size());
-    tbb::parallel_for(0, (n + 1) * (n + 1), [&](int s) {
-      const auto e = de_casteljau<double>(patch, double(s / (n + 1)) / n, double(s % (n + 1)) / n);
-      const Vec3 x(e[0], e[1], e[2]);
-      where[s] = x;
-      best[s] = std::max(0.0, to_mesh.distance(x) - to_mesh.rounding_bound(x) - rounding);
-    });
-    for (size_t s = 0; s < best.size(); ++s) {
-      if (best[s] > report.surface_to_mesh.lower) {
-        report.surface_to_mesh.lower = best[s];
-        report.surface_to_mesh.witness = where[s];
-        report.surface_to_mesh.witness_patch = p;
-      }
-    }
-  }
+  // Lower bounds.
+  mesh_to_surface_lower(model, mesh, to_reference, eps_m2s, options, report);
+  surface_to_mesh_lower(model, to_mesh, rounding, options, report);
   report.hausdorff.lower = std::max(report.mesh_to_surface.lower, report.surface_to_mesh.lower);
   report.hausdorff.upper = std::max(report.mesh_to_surface.upper, report.surface_to_mesh.upper);
   report.hausdorff.certified = report.mesh_to_surface.certified && report.surface_to_mesh.certified;

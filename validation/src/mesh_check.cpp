@@ -106,32 +106,37 @@ struct FreeCurves {
   }
 };
 
-}  // namespace
-
-TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model, const Topology* topology,
-                                   const TopologyOptions& options) {
-  TopologyReport r;
-  r.triangles = mesh.triangles.size();
-  const bool with_uv = mesh.has_surface() && model && topology && mesh.triangle_patch.size() == mesh.triangles.size();
-  r.classified_with_uv = with_uv;
+// The report being built; findings listed up to max_listed per kind (counts stay exact).
+struct Findings {
+  TopologyReport& r;
+  size_t max_listed;
   std::unordered_map<std::string, size_t> listed;
-  auto add = [&](TopologyFinding f) {
-    if (listed[f.kind]++ < options.max_listed) r.findings.push_back(std::move(f));
-  };
-  auto patch_of = [&](size_t t) -> int64_t {
-    return mesh.triangle_patch.size() > t ? static_cast<int64_t>(mesh.triangle_patch[t]) : int64_t(-1);
-  };
-  auto centroid = [&](const Triangle& t) {
-    return (mesh.positions[t[0]] + mesh.positions[t[1]] + mesh.positions[t[2]]) / 3.0;
-  };
+  void add(TopologyFinding f) {
+    if (listed[f.kind]++ < max_listed) r.findings.push_back(std::move(f));
+  }
+};
+
+int64_t patch_of(const Tessellation& mesh, size_t t) {
+  return mesh.triangle_patch.size() > t ? static_cast<int64_t>(mesh.triangle_patch[t]) : int64_t(-1);
+}
+
+Vec3 centroid(const Tessellation& mesh, const Triangle& t) {
+  return (mesh.positions[t[0]] + mesh.positions[t[1]] + mesh.positions[t[2]]) / 3.0;
+}
+
+// Throws InputError when a triangle refers to a vertex the mesh does not have.
+void check_vertex_indices(const Tessellation& mesh) {
   for (const Triangle& t : mesh.triangles) {
     for (uint32_t v : t) {
       if (v >= mesh.positions.size()) throw InputError("mesh check: a triangle refers to vertex " + std::to_string(v) +
                                                        " but the mesh has " + std::to_string(mesh.positions.size()));
     }
   }
+}
 
-  // Degenerate and duplicated faces.
+// Degenerate and duplicated faces.
+void find_degenerate_and_duplicated(const Tessellation& mesh, Findings& f) {
+  TopologyReport& r = f.r;
   std::unordered_set<std::string> seen_faces;
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
     const Triangle& t = mesh.triangles[i];
@@ -139,19 +144,23 @@ TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model,
     if (same_index || CGAL::collinear(cgal_point(mesh.positions[t[0]]), cgal_point(mesh.positions[t[1]]),
                                       cgal_point(mesh.positions[t[2]]))) {
       ++r.degenerate_triangles;
-      add({"degenerate_triangle", centroid(t), patch_of(i), static_cast<int64_t>(i), {t[0], t[1]}});
+      f.add({"degenerate_triangle", centroid(mesh, t), patch_of(mesh, i), static_cast<int64_t>(i), {t[0], t[1]}});
     }
     Triangle s = t;
     std::sort(s.begin(), s.end());
     std::string key(reinterpret_cast<const char*>(s.data()), sizeof(s));
     if (!seen_faces.insert(std::move(key)).second) {
       ++r.duplicated_faces;
-      add({"duplicated_face", centroid(t), patch_of(i), static_cast<int64_t>(i), {t[0], t[1]}});
+      f.add({"duplicated_face", centroid(mesh, t), patch_of(mesh, i), static_cast<int64_t>(i), {t[0], t[1]}});
     }
   }
+}
 
-  // Edge uses.
-  std::unordered_map<uint64_t, EdgeUse> edges;
+using EdgeUses = std::unordered_map<uint64_t, EdgeUse>;
+
+// Edge uses.
+EdgeUses count_edge_uses(const Tessellation& mesh) {
+  EdgeUses edges;
   edges.reserve(mesh.triangles.size() * 2);
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
     const Triangle& t = mesh.triangles[i];
@@ -164,7 +173,38 @@ TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model,
       if (a < b) ++e.forward;
     }
   }
-  r.edges = edges.size();
+  return edges;
+}
+
+// Model boundary from (patch, u, v): both ends of the open edge (a, b) of triangle `tri` on one free
+// side of the patch (a point of a collapsed side counts as on the sides meeting it, so a fan at an
+// apex between two free sides is boundary).
+bool on_free_side(const Tessellation& mesh, const Topology& topology, uint32_t tri, uint32_t a, uint32_t b) {
+  const Triangle& t = mesh.triangles[tri];
+  const auto& uv = mesh.triangle_uv[tri];
+  Vec2 ua{-1.0}, ub{-1.0};
+  for (int k = 0; k < 3; ++k) {
+    if (t[k] == a) ua = uv[k];
+    if (t[k] == b) ub = uv[k];
+  }
+  const uint32_t patch = mesh.triangle_patch[tri];
+  const unsigned common =
+      with_collapsed_corners(sides_of(ua), topology, patch) & with_collapsed_corners(sides_of(ub), topology, patch);
+  bool boundary = false;
+  for (int side = 0; side < 4 && !boundary; ++side) {
+    if (!(common >> side & 1u)) continue;
+    const Topology::SideInfo& info = topology.side(patch, static_cast<Side>(side));
+    boundary = info.edge >= 0 && topology.edges[static_cast<size_t>(info.edge)].uses.size() == 1;
+  }
+  return boundary;
+}
+
+// Every edge classified (non-manifold, inconsistently oriented, open: model boundary or crack);
+// returns the open edges.
+std::vector<std::pair<uint32_t, uint32_t>> classify_edges(const Tessellation& mesh, const Model* model,
+                                                          const Topology* topology, const TopologyOptions& options,
+                                                          bool with_uv, const EdgeUses& edges, Findings& f) {
+  TopologyReport& r = f.r;
   std::unique_ptr<FreeCurves> curves;
   double boundary_tol = 0.0;
   if (!with_uv && model && topology) {
@@ -177,112 +217,101 @@ TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model,
     const Vec3 mid = 0.5 * (mesh.positions[a] + mesh.positions[b]);
     if (e.count > 2) {
       ++r.non_manifold_edges;
-      add({"non_manifold_edge", mid, patch_of(e.triangle), e.triangle, {a, b}});
+      f.add({"non_manifold_edge", mid, patch_of(mesh, e.triangle), e.triangle, {a, b}});
     } else if (e.count == 2 && e.forward != 1) {
       ++r.inconsistent_orientation_edges;
-      add({"inconsistent_orientation_edge", mid, patch_of(e.triangle), e.triangle, {a, b}});
+      f.add({"inconsistent_orientation_edge", mid, patch_of(mesh, e.triangle), e.triangle, {a, b}});
     } else if (e.count == 1) {
       ++r.open_edges;
       open.emplace_back(a, b);
       bool boundary = false;
       if (with_uv) {
-        const Triangle& t = mesh.triangles[e.triangle];
-        const auto& uv = mesh.triangle_uv[e.triangle];
-        Vec2 ua{-1.0}, ub{-1.0};
-        for (int k = 0; k < 3; ++k) {
-          if (t[k] == a) ua = uv[k];
-          if (t[k] == b) ub = uv[k];
-        }
-        // Model boundary: both ends on one free side of the patch (a point of a collapsed side
-        // counts as on the sides meeting it, so a fan at an apex between two free sides is boundary).
-        const uint32_t patch = mesh.triangle_patch[e.triangle];
-        const unsigned common = with_collapsed_corners(sides_of(ua), *topology, patch) &
-                                with_collapsed_corners(sides_of(ub), *topology, patch);
-        for (int side = 0; side < 4 && !boundary; ++side) {
-          if (!(common >> side & 1u)) continue;
-          const Topology::SideInfo& info = topology->side(patch, static_cast<Side>(side));
-          boundary = info.edge >= 0 && topology->edges[static_cast<size_t>(info.edge)].uses.size() == 1;
-        }
+        boundary = on_free_side(mesh, *topology, e.triangle, a, b);
       } else if (curves && !curves->curves.empty()) {
         boundary = curves->on_same_curve(mesh.positions[a], mesh.positions[b], boundary_tol,
                                          boundary_tol + 0.25 * glm::length(mesh.positions[a] - mesh.positions[b]));
       }
       if (boundary) {
         ++r.model_boundary_edges;
-        add({"model_boundary_edge", mid, patch_of(e.triangle), e.triangle, {a, b}});
+        f.add({"model_boundary_edge", mid, patch_of(mesh, e.triangle), e.triangle, {a, b}});
       } else {
         ++r.crack_edges;
-        add({"crack_edge", mid, patch_of(e.triangle), e.triangle, {a, b}});
+        f.add({"crack_edge", mid, patch_of(mesh, e.triangle), e.triangle, {a, b}});
       }
     }
   }
+  return open;
+}
 
-  // T-junctions: a vertex of an open edge strictly inside another open edge. Candidates come from
-  // a uniform grid over the open edges' vertices (cell = mean open-edge length).
-  if (!open.empty()) {
-    std::vector<uint32_t> verts;
-    double mean = 0.0;
-    for (const auto& [a, b] : open) {
-      verts.push_back(a);
-      verts.push_back(b);
-      mean += glm::length(mesh.positions[a] - mesh.positions[b]);
-    }
-    std::sort(verts.begin(), verts.end());
-    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-    mean /= static_cast<double>(open.size());
-    const double cell = mean > 0.0 ? mean : 1.0;
-    auto cell_of = [&](const Vec3& p) {
-      return glm::i64vec3(std::floor(p.x / cell), std::floor(p.y / cell), std::floor(p.z / cell));
-    };
-    auto hash = [](const glm::i64vec3& c) {
-      return static_cast<uint64_t>(c.x * 73856093LL) ^ static_cast<uint64_t>(c.y * 19349663LL) ^
-             static_cast<uint64_t>(c.z * 83492791LL);
-    };
-    std::unordered_map<uint64_t, std::vector<uint32_t>> grid;
-    for (uint32_t v : verts) grid[hash(cell_of(mesh.positions[v]))].push_back(v);
-    std::unordered_set<uint32_t> junctions;
-    for (const auto& [a, b] : open) {
-      const Vec3 pa = mesh.positions[a], pb = mesh.positions[b];
-      const Vec3 ab = pb - pa;
-      const double len2 = glm::dot(ab, ab);
-      if (!(len2 > 0.0)) continue;
-      const double len = std::sqrt(len2), tol = options.t_junction_tolerance * len;
-      const glm::i64vec3 lo = cell_of(glm::min(pa, pb) - Vec3(tol)), hi = cell_of(glm::max(pa, pb) + Vec3(tol));
-      const long long cells = (hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1);
-      if (cells > 4096) continue;  // an edge far longer than the mean; skipped (documented limit)
-      for (int64_t x = lo.x; x <= hi.x; ++x) {
-        for (int64_t y = lo.y; y <= hi.y; ++y) {
-          for (int64_t z = lo.z; z <= hi.z; ++z) {
-            const auto it = grid.find(hash({x, y, z}));
-            if (it == grid.end()) continue;
-            for (uint32_t v : it->second) {
-              if (v == a || v == b || junctions.count(v)) continue;
-              const Vec3 p = mesh.positions[v];
-              if (p == pa || p == pb) continue;
-              bool inside = false;
-              const K::Point_3 ca = cgal_point(pa), cb = cgal_point(pb), cp = cgal_point(p);
-              if (CGAL::collinear(ca, cp, cb)) {
-                inside = CGAL::collinear_are_strictly_ordered_along_line(ca, cp, cb);
-              } else {
-                const double t = glm::dot(p - pa, ab) / len2;
-                inside = t * len > tol && (1.0 - t) * len > tol && glm::length(p - (pa + t * ab)) <= tol;
-              }
-              if (inside) {
-                junctions.insert(v);
-                const auto e = edges.find(edge_key(a, b));
-                add({"t_junction", p, patch_of(e->second.triangle), e->second.triangle, {v, -1}});
-              }
+// T-junctions: a vertex of an open edge strictly inside another open edge. Candidates come from
+// a uniform grid over the open edges' vertices (cell = mean open-edge length).
+void find_t_junctions(const Tessellation& mesh, const std::vector<std::pair<uint32_t, uint32_t>>& open,
+                      const EdgeUses& edges, const TopologyOptions& options, Findings& f) {
+  std::vector<uint32_t> verts;
+  double mean = 0.0;
+  for (const auto& [a, b] : open) {
+    verts.push_back(a);
+    verts.push_back(b);
+    mean += glm::length(mesh.positions[a] - mesh.positions[b]);
+  }
+  std::sort(verts.begin(), verts.end());
+  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+  mean /= static_cast<double>(open.size());
+  const double cell = mean > 0.0 ? mean : 1.0;
+  auto cell_of = [&](const Vec3& p) {
+    return glm::i64vec3(std::floor(p.x / cell), std::floor(p.y / cell), std::floor(p.z / cell));
+  };
+  auto hash = [](const glm::i64vec3& c) {
+    return static_cast<uint64_t>(c.x * 73856093LL) ^ static_cast<uint64_t>(c.y * 19349663LL) ^
+           static_cast<uint64_t>(c.z * 83492791LL);
+  };
+  std::unordered_map<uint64_t, std::vector<uint32_t>> grid;
+  for (uint32_t v : verts) grid[hash(cell_of(mesh.positions[v]))].push_back(v);
+  std::unordered_set<uint32_t> junctions;
+  for (const auto& [a, b] : open) {
+    const Vec3 pa = mesh.positions[a], pb = mesh.positions[b];
+    const Vec3 ab = pb - pa;
+    const double len2 = glm::dot(ab, ab);
+    if (!(len2 > 0.0)) continue;
+    const double len = std::sqrt(len2), tol = options.t_junction_tolerance * len;
+    const glm::i64vec3 lo = cell_of(glm::min(pa, pb) - Vec3(tol)), hi = cell_of(glm::max(pa, pb) + Vec3(tol));
+    const long long cells = (hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1);
+    if (cells > 4096) continue;  // an edge far longer than the mean; skipped (documented limit)
+    for (int64_t x = lo.x; x <= hi.x; ++x) {
+      for (int64_t y = lo.y; y <= hi.y; ++y) {
+        for (int64_t z = lo.z; z <= hi.z; ++z) {
+          const auto it = grid.find(hash({x, y, z}));
+          if (it == grid.end()) continue;
+          for (uint32_t v : it->second) {
+            if (v == a || v == b || junctions.count(v)) continue;
+            const Vec3 p = mesh.positions[v];
+            if (p == pa || p == pb) continue;
+            bool inside = false;
+            const K::Point_3 ca = cgal_point(pa), cb = cgal_point(pb), cp = cgal_point(p);
+            if (CGAL::collinear(ca, cp, cb)) {
+              inside = CGAL::collinear_are_strictly_ordered_along_line(ca, cp, cb);
+            } else {
+              const double t = glm::dot(p - pa, ab) / len2;
+              inside = t * len > tol && (1.0 - t) * len > tol && glm::length(p - (pa + t * ab)) <= tol;
+            }
+            if (inside) {
+              junctions.insert(v);
+              const auto e = edges.find(edge_key(a, b));
+              f.add({"t_junction", p, patch_of(mesh, e->second.triangle), e->second.triangle, {v, -1}});
             }
           }
         }
       }
     }
-    r.t_junctions = junctions.size();
   }
+  f.r.t_junctions = junctions.size();
+}
 
-  // Components through shared vertices (union-find), closedness from the edge uses, and the signed
-  // volume of each closed one: the sum over its triangles of det(p0 - c, p1 - c, p2 - c) / 6 with c
-  // the component's box centre (the divergence theorem; c only reduces cancellation).
+// Components through shared vertices (union-find), closedness from the edge uses, and the signed
+// volume of each closed one: the sum over its triangles of det(p0 - c, p1 - c, p2 - c) / 6 with c
+// the component's box centre (the divergence theorem; c only reduces cancellation).
+void find_components(const Tessellation& mesh, const EdgeUses& edges, const TopologyOptions& options, Findings& f) {
+  TopologyReport& r = f.r;
   std::vector<uint32_t> parent(mesh.positions.size());
   for (uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
   auto find = [&](uint32_t v) {
@@ -304,7 +333,7 @@ TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model,
     if (fresh) {
       MeshComponent c;
       c.first_triangle = static_cast<int64_t>(i);
-      c.patch = patch_of(i);
+      c.patch = patch_of(mesh, i);
       c.box_min = c.box_max = mesh.positions[t[0]];
       c.closed = true;
       comps.push_back(c);
@@ -338,13 +367,32 @@ TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model,
     r.closed_components += c.closed;
     if (c.inside_out) {
       ++r.inside_out_components;
-      add({"inside_out_component", 0.5 * (c.box_min + c.box_max), c.patch, c.first_triangle, {-1, -1}});
+      f.add({"inside_out_component", 0.5 * (c.box_min + c.box_max), c.patch, c.first_triangle, {-1, -1}});
     }
   }
   r.components = comps.size();
   std::stable_partition(comps.begin(), comps.end(), [](const MeshComponent& c) { return c.closed; });
   if (comps.size() > options.max_listed_components) comps.resize(options.max_listed_components);
   r.component_list = std::move(comps);
+}
+
+}  // namespace
+
+TopologyReport check_mesh_topology(const Tessellation& mesh, const Model* model, const Topology* topology,
+                                   const TopologyOptions& options) {
+  TopologyReport r;
+  r.triangles = mesh.triangles.size();
+  const bool with_uv = mesh.has_surface() && model && topology && mesh.triangle_patch.size() == mesh.triangles.size();
+  r.classified_with_uv = with_uv;
+  Findings f{r, options.max_listed, {}};
+  check_vertex_indices(mesh);
+  find_degenerate_and_duplicated(mesh, f);
+  const EdgeUses edges = count_edge_uses(mesh);
+  r.edges = edges.size();
+  const std::vector<std::pair<uint32_t, uint32_t>> open =
+      classify_edges(mesh, model, topology, options, with_uv, edges, f);
+  if (!open.empty()) find_t_junctions(mesh, open, edges, options, f);
+  find_components(mesh, edges, options, f);
   return r;
 }
 

@@ -1,5 +1,6 @@
-// Internal: distance from points to a triangle mesh through CGAL AABB trees (this header is
-// CGAL-free; CGAL is used in mesh_distance.cpp). Zero-area triangles count as the segment or point
+// Internal: distance from points to a triangle mesh through CGAL AABB trees. The trees live in
+// mesh_distance.cpp behind Impl, so this header is CGAL-free and its users (certify.cpp,
+// external.cpp) need not include the AABB headers. Zero-area triangles count as the segment or point
 // they are, so a mesh of degenerate triangles (a patch collapsed to a line) has a distance too.
 // Queries are thread-safe after construction.
 #pragma once

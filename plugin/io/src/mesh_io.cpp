@@ -156,7 +156,7 @@ void put(std::string& out, T value) {
 
 }  // namespace
 
-void write_obj(const Tessellation& mesh, const std::string& path, const MeshWriteOptions& options) {
+void detail::write_obj(const Tessellation& mesh, const std::string& path, const MeshWriteOptions& options) {
   std::string out;
   out.reserve(mesh.positions.size() * 80 + mesh.triangles.size() * 40);
   out += "# sagitta tessellation: " + std::to_string(mesh.positions.size()) + " vertices, " +
@@ -236,7 +236,7 @@ void write_stl(const Tessellation& mesh, const std::string& path, const MeshWrit
 
 void write_mesh(const Tessellation& mesh, const std::string& path, const MeshWriteOptions& options) {
   const std::string ext = file_extension(path);
-  if (ext == ".obj") return write_obj(mesh, path, options);
+  if (ext == ".obj") return detail::write_obj(mesh, path, options);
   if (ext == ".ply") return write_ply(mesh, path, options);
   if (ext == ".stl") return write_stl(mesh, path, options);
   throw InputError(path + ": unknown mesh type (expected .obj, .ply or .stl)");

@@ -405,12 +405,12 @@ Tessellation read_mesh(const std::string& path) {
   if (!is_mesh_file(path)) {
     throw InputError(path + ": unknown mesh type (expected .obj, .ply or .stl)");
   }
-  if (ext == ".ply") return parse_mesh(read_ply_file(path), path, ext);
-  if (ext == ".stl") return parse_mesh(read_stl_file(path), path, ext);
-  return parse_mesh(read_text_input(path), path, ext);
+  if (ext == ".ply") return detail::parse_mesh(read_ply_file(path), path, ext);
+  if (ext == ".stl") return detail::parse_mesh(read_stl_file(path), path, ext);
+  return detail::parse_mesh(detail::read_text_input(path), path, ext);
 }
 
-Tessellation parse_mesh(const std::string& bytes, const std::string& name, const std::string& ext) {
+Tessellation detail::parse_mesh(const std::string& bytes, const std::string& name, const std::string& ext) {
   if (ext == ".obj") return parse_obj(bytes, name);
   if (ext == ".ply") return parse_ply(bytes, name);
   if (ext == ".stl") return parse_stl(bytes, name);

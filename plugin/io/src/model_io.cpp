@@ -64,7 +64,7 @@ std::string read_file_chunked(const std::string& path, const std::function<void(
 
 }  // namespace detail
 
-std::string read_text_input(const std::string& path, size_t max_line) {
+std::string detail::read_text_input(const std::string& path, size_t max_line) {
   detail::TextScanner scanner(path, max_line);
   return detail::read_file_chunked(path, [&](const std::string& bytes) { scanner.scan(bytes); });
 }
@@ -196,7 +196,7 @@ Model parse_bpt(const std::string& text, const std::string& name) {
   return model;
 }
 
-Model read_bpt(const std::string& path) { return parse_bpt(read_text_input(path), path); }
+Model read_bpt(const std::string& path) { return parse_bpt(detail::read_text_input(path), path); }
 
 namespace {
 
@@ -289,7 +289,7 @@ bool mirrors(const glm::dmat4& m) {
 
 }  // namespace
 
-Model parse_rib(const std::string& text, const std::string& name) {
+Model detail::parse_rib(const std::string& text, const std::string& name) {
   RibLexer lex(text, name);
   // Orientation (RenderMan Interface Specification 3.2, section 4.2.14): the initial coordinate
   // system is left-handed and so is the initial current orientation; a transform with a negative
@@ -446,7 +446,7 @@ Model parse_rib(const std::string& text, const std::string& name) {
   return model;
 }
 
-Model read_rib(const std::string& path) { return parse_rib(read_text_input(path), path); }
+Model read_rib(const std::string& path) { return detail::parse_rib(detail::read_text_input(path), path); }
 
 std::string file_extension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();

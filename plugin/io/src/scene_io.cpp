@@ -189,7 +189,7 @@ const std::vector<std::string>& scene_fixture_names() {
   return names;
 }
 
-Scene parse_scene(const std::string& text, const std::string& name) {
+Scene detail::parse_scene(const std::string& text, const std::string& name) {
   if (text.find_first_not_of(" \t\r\n") == std::string::npos) throw InputError(name + ": empty scene file");
   Json doc;
   try {
@@ -284,6 +284,6 @@ Scene parse_scene(const std::string& text, const std::string& name) {
 }
 
 // JSON may be minified onto one line: lines are not limited, NUL bytes (invalid JSON) are refused.
-Scene read_scene(const std::string& path) { return parse_scene(read_text_input(path, 0), path); }
+Scene read_scene(const std::string& path) { return detail::parse_scene(detail::read_text_input(path, 0), path); }
 
 }  // namespace sagitta::io

@@ -323,6 +323,60 @@ TopoDS_Shape read_brep_shape(const std::string& text, const std::string& name) {
   return shape;
 }
 
+namespace {
+
+// The face's Bézier patches (u reversed on a reversed face); empty when the face is skipped, with
+// r.reason saying why. Sets r's surface type, breaks and (for a trimmed face) status.
+std::vector<BezierPatch> face_patches(const TopoDS_Face& face, const std::string& name, const CadOptions& options,
+                                      FaceReport& r) {
+  std::vector<BezierPatch> patches;
+  try {
+    const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);  // location applied
+    if (surface.IsNull()) {
+      r.surface_type = "none";
+      r.reason = "the face has no surface";
+    } else {
+      Handle(Geom_Surface) basis = surface;
+      while (basis->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))
+        basis = Handle(Geom_RectangularTrimmedSurface)::DownCast(basis)->BasisSurface();
+      r.surface_type = surface_type_name(basis);
+      double u0, u1, v0, v1;
+      BRepTools::UVBounds(face, u0, u1, v0, v1);
+      const bool analytic =
+          !basis->IsKind(STANDARD_TYPE(Geom_BSplineSurface)) && !basis->IsKind(STANDARD_TYPE(Geom_BezierSurface));
+      if (analytic && !options.convert_analytic) {
+        r.reason = "analytic surface and convert_analytic is off";
+      } else {
+        patches = decompose(surface, u0, u1, v0, v1, r.reason, r.u_breaks, r.v_breaks);
+        for (size_t i = 0; i < patches.size() && r.reason.empty(); ++i) {
+          try {
+            validate_patch(patches[i], name + " " + r.name);
+            normalize_weights(patches[i]);
+          } catch (const InputError& e) {
+            r.reason = e.what();
+          }
+        }
+        if (!r.reason.empty()) patches.clear();
+      }
+      if (r.reason.empty() && !domain_is_rectangle(face, u0, u1, v0, v1)) {
+        r.status = "trimmed";
+        r.reason = "trimmed: the face's boundary is not its parameter rectangle";
+      }
+    }
+  } catch (const Standard_Failure& e) {
+    r.reason = std::string("OCCT failed on the face (") + e.GetMessageString() + ")";
+    patches.clear();
+  }
+  // A reversed face's outward normal is -dS/du x dS/dv: reverse the u direction so that every
+  // patch's normal (and so every triangle's winding) follows the B-rep's orientation.
+  if (face.Orientation() == TopAbs_REVERSED) {
+    for (BezierPatch& p : patches) reverse_u(p);
+  }
+  return patches;
+}
+
+}  // namespace
+
 CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name, const CadOptions& options) {
   CadModel cad;
   cad.model.name = name;
@@ -334,48 +388,7 @@ CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name
     FaceReport r;
     r.face_index = k - 1;
     r.name = "Face " + std::to_string(k);
-    std::vector<BezierPatch> patches;
-    try {
-      const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);  // location applied
-      if (surface.IsNull()) {
-        r.surface_type = "none";
-        r.reason = "the face has no surface";
-      } else {
-        Handle(Geom_Surface) basis = surface;
-        while (basis->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))
-          basis = Handle(Geom_RectangularTrimmedSurface)::DownCast(basis)->BasisSurface();
-        r.surface_type = surface_type_name(basis);
-        double u0, u1, v0, v1;
-        BRepTools::UVBounds(face, u0, u1, v0, v1);
-        const bool analytic = !basis->IsKind(STANDARD_TYPE(Geom_BSplineSurface)) && !basis->IsKind(STANDARD_TYPE(Geom_BezierSurface));
-        if (analytic && !options.convert_analytic) {
-          r.reason = "analytic surface and convert_analytic is off";
-        } else {
-          patches = decompose(surface, u0, u1, v0, v1, r.reason, r.u_breaks, r.v_breaks);
-          for (size_t i = 0; i < patches.size() && r.reason.empty(); ++i) {
-            try {
-              validate_patch(patches[i], name + " " + r.name);
-              normalize_weights(patches[i]);
-            } catch (const InputError& e) {
-              r.reason = e.what();
-            }
-          }
-          if (!r.reason.empty()) patches.clear();
-        }
-        if (r.reason.empty() && !domain_is_rectangle(face, u0, u1, v0, v1)) {
-          r.status = "trimmed";
-          r.reason = "trimmed: the face's boundary is not its parameter rectangle";
-        }
-      }
-    } catch (const Standard_Failure& e) {
-      r.reason = std::string("OCCT failed on the face (") + e.GetMessageString() + ")";
-      patches.clear();
-    }
-    // A reversed face's outward normal is -dS/du x dS/dv: reverse the u direction so that every
-    // patch's normal (and so every triangle's winding) follows the B-rep's orientation.
-    if (face.Orientation() == TopAbs_REVERSED) {
-      for (BezierPatch& p : patches) reverse_u(p);
-    }
+    std::vector<BezierPatch> patches = face_patches(face, name, options, r);
     if (patches.empty()) {
       r.status = "skipped";
     } else if (r.status == "trimmed") {

@@ -27,7 +27,7 @@ std::string scene_file(const std::string& name) { return std::string(SAGITTA_SOU
 // The message of the InputError parse_scene throws for `text` ("" when it accepts it).
 std::string scene_error(const std::string& text) {
   try {
-    io::parse_scene(text, "bad.json");
+    io::detail::parse_scene(text, "bad.json");
   } catch (const InputError& e) {
     return e.what();
   }
@@ -49,7 +49,7 @@ std::string replaced(std::string text, const std::string& from, const std::strin
 }
 
 TEST(SceneReader, ReadsTheSchema) {
-  const io::Scene scene = io::parse_scene(kGood, "good.json");
+  const io::Scene scene = io::detail::parse_scene(kGood, "good.json");
   ASSERT_EQ(scene.models.size(), 2u);
   ASSERT_EQ(scene.instances.size(), 2u);
   EXPECT_EQ(scene.instances[1].model, 1u);
@@ -104,7 +104,7 @@ TEST(SceneReader, RejectsMalformedScenesWithOneLineNamingTheField) {
 }
 
 TEST(SceneReader, ResolvesModelsAndNamesMissingOnes) {
-  const io::Scene scene = io::parse_scene(kGood, "good.json");
+  const io::Scene scene = io::detail::parse_scene(kGood, "good.json");
   try {
     scene::load_scene(scene, ".", "");
     FAIL() << "data: without a data folder was accepted";
@@ -344,7 +344,7 @@ TEST(SceneCulling, BackFacingPatchesReallyFaceAway) {
     "camera": {"eye": [1, -12, 5], "target": [0, 0, 0], "up": [0, 0, 1], "fov_y_degrees": 60, "width": 800, "height": 600},
     "tolerance_pixels": 2
   })";
-  const scene::LoadedScene loaded = scene::load_scene(io::parse_scene(text, "boxes.json"), ".", "");
+  const scene::LoadedScene loaded = scene::load_scene(io::detail::parse_scene(text, "boxes.json"), ".", "");
   EXPECT_EQ(loaded.facing[0], 1);  // the fixtures are closed with du x dv outwards
   EXPECT_EQ(loaded.facing[1], 1);
   const scene::SceneResult result = scene::tessellate_scene(loaded);

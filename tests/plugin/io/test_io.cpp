@@ -118,7 +118,7 @@ TEST(Rib, BicubicPatchesWithTransforms) {
         for (int k = 0; k < 16; ++k) s += std::to_string(k % 4) + " " + std::to_string(k / 4) + " 0 ";
         return s;
       }() + "]\n";
-  const Model m = io::parse_rib(rib, "scene.rib");
+  const Model m = io::detail::parse_rib(rib, "scene.rib");
   ASSERT_EQ(m.patches.size(), 3u);
   // RIB varies u fastest: its second point (1 0 0) is our (u=1, v=0).
   EXPECT_EQ(m.patches[0].at(1, 0), Vec3(12, 0, 0));   // scaled by 2, then translated
@@ -129,17 +129,20 @@ TEST(Rib, BicubicPatchesWithTransforms) {
 }
 
 TEST(Rib, RejectsMalformedInput) {
-  EXPECT_NE(error_of([] { io::parse_rib("Patch \"bicubic\" \"P\" [1 2 3]\n", "a.rib"); })
-                .find("a.rib:1: Patch \"bicubic\" needs 48 numbers, got 3"),
+  EXPECT_NE(error_of([] {
+              io::detail::parse_rib("Patch \"bicubic\" \"P\" [1 2 3]\n", "a.rib");
+            }).find("a.rib:1: Patch \"bicubic\" needs 48 numbers, got 3"),
             std::string::npos);
-  EXPECT_NE(error_of([] { io::parse_rib("\n\nTransformEnd\n", "b.rib"); }).find("b.rib:3: TransformEnd without"),
+  EXPECT_NE(
+      error_of([] { io::detail::parse_rib("\n\nTransformEnd\n", "b.rib"); }).find("b.rib:3: TransformEnd without"),
+      std::string::npos);
+  EXPECT_NE(error_of([] { io::detail::parse_rib("WorldBegin\nWorldEnd\n", "c.rib"); }).find("the model is empty"),
             std::string::npos);
-  EXPECT_NE(error_of([] { io::parse_rib("WorldBegin\nWorldEnd\n", "c.rib"); }).find("the model is empty"),
+  EXPECT_NE(error_of([] {
+              io::detail::parse_rib("Patch \"bilinear\" \"P\" [0 0 0 1 0 nan 0 1 0 1 1 0]", "d.rib");
+            }).find("not a finite number"),
             std::string::npos);
-  EXPECT_NE(error_of([] { io::parse_rib("Patch \"bilinear\" \"P\" [0 0 0 1 0 nan 0 1 0 1 1 0]", "d.rib"); })
-                .find("not a finite number"),
-            std::string::npos);
-  EXPECT_NE(error_of([] { io::parse_rib("Basis \"bspline\" 1 \"bspline\" 1\n", "e.rib"); }).find("only Basis"),
+  EXPECT_NE(error_of([] { io::detail::parse_rib("Basis \"bspline\" 1 \"bspline\" 1\n", "e.rib"); }).find("only Basis"),
             std::string::npos);
 }
 
@@ -182,42 +185,51 @@ int patch_orientation(const Model& m) {
 // the fastest index; a mirroring transform flips the coordinate system and the orientation
 // together (the surface stays outward); ReverseOrientation and Orientation "inside" turn it in.
 TEST(Rib, OrientationFollowsRenderMan) {
-  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube(""), "cube.rib")), 1);
-  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Scale 1 1 -1"), "mirrored.rib")), 1);
-  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("ConcatTransform [-2 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1]"), "m.rib")), 1);
-  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("ReverseOrientation"), "reversed.rib")), -1);
-  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Orientation \"inside\""), "inside.rib")), -1);
-  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Orientation \"rh\""), "rh.rib")), -1);
-  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Scale 1 1 -1 Orientation \"rh\""), "mirrored_rh.rib")), 1);
+  EXPECT_EQ(patch_orientation(io::detail::parse_rib(rib_cube(""), "cube.rib")), 1);
+  EXPECT_EQ(patch_orientation(io::detail::parse_rib(rib_cube("Scale 1 1 -1"), "mirrored.rib")), 1);
+  EXPECT_EQ(
+      patch_orientation(io::detail::parse_rib(rib_cube("ConcatTransform [-2 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1]"), "m.rib")),
+      1);
+  EXPECT_EQ(patch_orientation(io::detail::parse_rib(rib_cube("ReverseOrientation"), "reversed.rib")), -1);
+  EXPECT_EQ(patch_orientation(io::detail::parse_rib(rib_cube("Orientation \"inside\""), "inside.rib")), -1);
+  EXPECT_EQ(patch_orientation(io::detail::parse_rib(rib_cube("Orientation \"rh\""), "rh.rib")), -1);
+  EXPECT_EQ(patch_orientation(io::detail::parse_rib(rib_cube("Scale 1 1 -1 Orientation \"rh\""), "mirrored_rh.rib")),
+            1);
   // Tiny scales (determinant 1e-330, below the doubles) keep the sign of the determinant.
-  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("Scale 1e-110 1e-110 -1e-110"), "tiny.rib")), 1);
+  EXPECT_EQ(patch_orientation(io::detail::parse_rib(rib_cube("Scale 1e-110 1e-110 -1e-110"), "tiny.rib")), 1);
   // ReverseOrientation is an attribute: AttributeEnd restores it, TransformEnd does not.
-  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("AttributeBegin ReverseOrientation AttributeEnd"), "a.rib")), 1);
-  EXPECT_EQ(patch_orientation(io::parse_rib(rib_cube("TransformBegin ReverseOrientation TransformEnd"), "t.rib")), -1);
+  EXPECT_EQ(
+      patch_orientation(io::detail::parse_rib(rib_cube("AttributeBegin ReverseOrientation AttributeEnd"), "a.rib")), 1);
+  EXPECT_EQ(
+      patch_orientation(io::detail::parse_rib(rib_cube("TransformBegin ReverseOrientation TransformEnd"), "t.rib")),
+      -1);
 }
 
 TEST(Rib, TransformReplacesAndSingularTransformsAreRefused) {
-  const Model m = io::parse_rib(
+  const Model m = io::detail::parse_rib(
       "Translate 5 0 0\nTransform [2 0 0 0  0 2 0 0  0 0 2 0  0 0 1 1]\n"
       "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n",
       "t.rib");
   EXPECT_EQ(m.patches[0].at(1, 1), Vec3(2, 2, 1));
   const std::string patch = "Patch \"bilinear\" \"P\" [0 0 0  1 0 0  0 1 0  1 1 0]\n";
-  EXPECT_EQ(error_of([&] { io::parse_rib("Scale 0 0 0\n" + patch, "s.rib"); }),
+  EXPECT_EQ(error_of([&] { io::detail::parse_rib("Scale 0 0 0\n" + patch, "s.rib"); }),
             "s.rib:1: Scale by zero makes the transformation singular");
-  EXPECT_EQ(error_of([&] { io::parse_rib("\nTransform [1 0 0 0 0 1 0 0 0 0 0 0 0 0 0 1]\n" + patch, "z.rib"); }),
-            "z.rib:2: Transform matrix is singular");
-  EXPECT_EQ(error_of([&] { io::parse_rib("Scale 1e-200 1e-200 1e-200\nScale 1e-200 1 1\n" + patch, "u.rib"); }),
+  EXPECT_EQ(
+      error_of([&] { io::detail::parse_rib("\nTransform [1 0 0 0 0 1 0 0 0 0 0 0 0 0 0 1]\n" + patch, "z.rib"); }),
+      "z.rib:2: Transform matrix is singular");
+  EXPECT_EQ(error_of([&] { io::detail::parse_rib("Scale 1e-200 1e-200 1e-200\nScale 1e-200 1 1\n" + patch, "u.rib"); }),
             "u.rib:2: Scale makes the transformation singular (or not finite)");
   for (const char* request : {"ObjectBegin 1", "ObjectInstance 1", "MotionBegin [0 1]", "Skew 45 0 1 0 1 0 0"}) {
     const std::string word = std::string(request).substr(0, std::string(request).find(' '));
-    EXPECT_EQ(error_of([&] { io::parse_rib(std::string(request) + "\n" + patch, "r.rib"); }).rfind("r.rib:1: " + word + " is not supported", 0),
+    EXPECT_EQ(error_of([&] {
+                io::detail::parse_rib(std::string(request) + "\n" + patch, "r.rib");
+              }).rfind("r.rib:1: " + word + " is not supported", 0),
               0u)
         << request;
   }
-  EXPECT_EQ(error_of([] { io::parse_rib("Orientation \"sideways\"\n", "o.rib"); }),
+  EXPECT_EQ(error_of([] { io::detail::parse_rib("Orientation \"sideways\"\n", "o.rib"); }),
             "o.rib:1: Orientation must be \"outside\", \"inside\", \"lh\" or \"rh\"");
-  EXPECT_EQ(error_of([] { io::parse_rib("Attribute \"" + std::string(5000, 'a') + "\"\n", "l.rib"); }),
+  EXPECT_EQ(error_of([] { io::detail::parse_rib("Attribute \"" + std::string(5000, 'a') + "\"\n", "l.rib"); }),
             "l.rib:1: string longer than 4096 bytes");
 }
 
@@ -232,7 +244,8 @@ TEST(TextInput, RefusesNulBytesAndOverlongLinesAsTheyAreRead) {
   EXPECT_EQ(error_of([&] { io::read_bpt(nul); }), nul + ":3: contains a NUL byte (binary data, not a text file)");
   EXPECT_EQ(error_of([&] { io::read_mesh(longline); }), longline + ":2: line longer than 65536 bytes (no valid line is that long)");
   if (fs::exists("/dev/zero")) {
-    EXPECT_EQ(error_of([] { io::read_text_input("/dev/zero"); }), "/dev/zero:1: contains a NUL byte (binary data, not a text file)");
+    EXPECT_EQ(error_of([] { io::detail::read_text_input("/dev/zero"); }),
+              "/dev/zero:1: contains a NUL byte (binary data, not a text file)");
     EXPECT_EQ(error_of([] { io::read_scene("/dev/zero"); }), "/dev/zero:1: contains a NUL byte (binary data, not a text file)");
   }
   fs::remove_all(dir);
@@ -298,25 +311,31 @@ TEST_F(MeshFiles, FailedWriteLeavesTargetUntouched) {
 }
 
 TEST(MeshRead, RejectsMalformedMeshes) {
-  EXPECT_NE(error_of([] { io::parse_mesh("v 0 0 0\nv 1 0 0\nf 1 2 3\n", "a.obj", ".obj"); })
-                .find("a.obj:3: vertex index 3 is out of range"),
+  EXPECT_NE(error_of([] {
+              io::detail::parse_mesh("v 0 0 0\nv 1 0 0\nf 1 2 3\n", "a.obj", ".obj");
+            }).find("a.obj:3: vertex index 3 is out of range"),
             std::string::npos);
-  EXPECT_NE(error_of([] { io::parse_mesh("v 0 0 nan\n", "b.obj", ".obj"); }).find("b.obj:1: 'v' needs 3 finite numbers"),
+  EXPECT_NE(error_of([] {
+              io::detail::parse_mesh("v 0 0 nan\n", "b.obj", ".obj");
+            }).find("b.obj:1: 'v' needs 3 finite numbers"),
             std::string::npos);
-  EXPECT_NE(error_of([] { io::parse_mesh("v 0 0 0\n", "c.obj", ".obj"); }).find("c.obj: the mesh has no faces"),
+  EXPECT_NE(error_of([] { io::detail::parse_mesh("v 0 0 0\n", "c.obj", ".obj"); }).find("c.obj: the mesh has no faces"),
             std::string::npos);
-  EXPECT_NE(error_of([] { io::parse_mesh("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                                          "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
-                                          "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
-                                          "d.ply", ".ply"); })
-                .find("vertex index 7 out of range"),
+  EXPECT_NE(error_of([] {
+              io::detail::parse_mesh(
+                  "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                  "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                  "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
+                  "d.ply", ".ply");
+            }).find("vertex index 7 out of range"),
             std::string::npos);
-  EXPECT_NE(error_of([] { io::parse_mesh(std::string(90, 'x'), "e.stl", ".stl"); }).find("e.stl: not an STL file"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of([] { io::detail::parse_mesh(std::string(90, 'x'), "e.stl", ".stl"); }).find("e.stl: not an STL file"),
+      std::string::npos);
   std::string truncated = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
                           "property double z\nend_header\n";
   truncated += std::string(20, '\0');
-  EXPECT_NE(error_of([&] { io::parse_mesh(truncated, "f.ply", ".ply"); }).find("truncated"), std::string::npos);
+  EXPECT_NE(error_of([&] { io::detail::parse_mesh(truncated, "f.ply", ".ply"); }).find("truncated"), std::string::npos);
 }
 
 TEST(MeshRead, ObjQuadsAreTriangulatedAndSplitNormalsSplitVertices) {
@@ -326,8 +345,8 @@ TEST(MeshRead, ObjQuadsAreTriangulatedAndSplitNormalsSplitVertices) {
   EXPECT_EQ(cube.positions.size(), 8u);
   EXPECT_EQ(cube.triangles.size(), 12u);
   EXPECT_TRUE(cube.normals.empty());
-  const Tessellation split =
-      io::parse_mesh("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 -1\nf 1//1 2//1 3//1\nf 1//2 3//2 2//2\n", "s.obj", ".obj");
+  const Tessellation split = io::detail::parse_mesh(
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 -1\nf 1//1 2//1 3//1\nf 1//2 3//2 2//2\n", "s.obj", ".obj");
   EXPECT_EQ(split.positions.size(), 6u);
   EXPECT_EQ(split.normals.size(), 6u);
 }

@@ -90,13 +90,9 @@ void check_distance_report(DistanceReport& report);
 // Throws InputError when the tessellation has no surface data or refers to a missing patch.
 DistanceReport certify_distance(const Model& model, const Tessellation& mesh, const CertifyOptions& options = {});
 
-// A value <= the distance from x to the union of all patches of the model, tightened by
-// branch-and-bound towards `target` (it never exceeds target). Spends at most node_budget nodes.
-double certified_distance_lower(const Model& model, const Vec3& x, double target, int node_budget);
-
 // Upper bound of max over the triangle of |S(sum b_i q_i) - sum b_i X_i| (q_i in the patch's
 // domain), from the Bernstein form of the composition (degree n + m, or n + m + 1 for rational
-// patches), rounding included. Exposed for tests.
+// patches), rounding included. The scene planner uses it to bound a patch's error at a level.
 double affine_error_bound(const BezierPatch& patch, const Vec2 q[3], const Vec3 X[3]);
 
 // Certified distance for a mesh without (u, v) (an STL, OCCT's BRepMesh output). A uniform
@@ -112,5 +108,14 @@ struct ExternalOptions {
   CertifyOptions certify;
 };
 DistanceReport certify_external(const Model& model, const Tessellation& mesh, const ExternalOptions& options = {});
+
+namespace detail {
+
+// Used by certify_distance and certify_external, exported for tests: a value <= the distance from x
+// to the union of all patches of the model, tightened by branch-and-bound towards `target` (it never
+// exceeds target). Spends at most node_budget nodes.
+double certified_distance_lower(const Model& model, const Vec3& x, double target, int node_budget);
+
+}  // namespace detail
 
 }  // namespace sagitta

@@ -45,16 +45,21 @@ struct Scene {
   std::string backface_culling = "auto";
 };
 
+// Reads and parses a scene file (see detail::parse_scene for what is refused).
+Scene read_scene(const std::string& path);
+
+// The fixtures a scene may name with "fixture:".
+const std::vector<std::string>& scene_fixture_names();
+
+// Used by read_scene, exported for the tests and fuzzers only.
+namespace detail {
+
 // Parses a scene from its bytes; `name` is used in messages. Pure: touches no file. Throws
 // InputError with one line "NAME: JSON.PATH: problem" for malformed JSON, missing or unknown fields,
 // wrong types, non-finite numbers, degenerate cameras or transforms, and instances naming an unknown
 // model or an unknown fixture.
 Scene parse_scene(const std::string& text, const std::string& name);
 
-// Reads and parses a scene file.
-Scene read_scene(const std::string& path);
-
-// The fixtures a scene may name with "fixture:".
-const std::vector<std::string>& scene_fixture_names();
+}  // namespace detail
 
 }  // namespace sagitta::io
