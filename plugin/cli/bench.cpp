@@ -7,7 +7,7 @@
 #include "sagitta/esc.hpp"
 #include "sagitta/fit.hpp"
 #include "sagitta/io/model_io.hpp"
-#include "sagitta/pn.hpp"
+#include "sagitta/scheme.hpp"
 #include "sagitta/uniform.hpp"
 #include "sagitta/uniform_grid.hpp"
 
@@ -121,14 +121,15 @@ void print_rate(const std::string& name, int threads, const nlohmann::json& j, d
 struct Fitted {
   std::string scheme;
   FitResult fit;
-  UniformParams uniform;
-  EscParams esc;
-  bool is_esc = false;
+  SchemeSpec spec;  // the fitted setting (with surface data, so it can be certified)
 };
 
-// Our tessellation at a fitted setting (with surface data, so it can be certified).
-Tessellation tessellate_fitted(const Model& model, const Topology& topo, const Fitted& f) {
-  return f.is_esc ? tessellate_esc(model, topo, f.esc) : tessellate_uniform(model, topo, f.uniform);
+// Bench times the kernels at sizes it chose: no front end's size guard.
+SchemeSpec unguarded(Scheme scheme) {
+  SchemeSpec spec;
+  spec.scheme = scheme;
+  spec.guard = false;
+  return spec;
 }
 
 // Fewest-triangle setting among uniform (global and per patch) and ESC that certifies <= target.
@@ -145,20 +146,20 @@ bool fit_ours(const Model& model, const Topology& topo, double target, Fitted& b
     Fitted f;
     FitOptions options;
     options.per_patch = kind == 1;
-    const FitScheme scheme = kind == 2 ? FitScheme::kEsc : FitScheme::kUniform;
+    const Scheme scheme = kind == 2 ? Scheme::kEsc : Scheme::kUniform;
     f.fit = fit_to_error(model, topo, scheme, target, options);
     f.fit.mesh = Tessellation();
+    f.spec = unguarded(scheme);
     if (kind == 2) {
       f.scheme = "esc";
-      f.is_esc = true;
-      f.esc.level = f.fit.level;
-      f.esc.threshold = f.fit.threshold;
+      f.spec.level = f.fit.level;
+      f.spec.threshold = f.fit.threshold;
     } else if (kind == 1) {
       f.scheme = "uniform_per_patch";
-      for (const PatchChoice& c : f.fit.patches) f.uniform.patch_levels.push_back(c.level);
+      for (const PatchChoice& c : f.fit.patches) f.spec.patch_levels.push_back(c.level);
     } else {
       f.scheme = "uniform";
-      f.uniform.segments = f.fit.level;
+      f.spec.segments = f.fit.level;
     }
     consider(std::move(f));
   }
@@ -262,20 +263,20 @@ void run_bench(const BenchOptions& o) {
   const double grid_triangles = 2.0 * n * n * static_cast<double>(cups.patches.size());
   std::vector<float> xyz32(3 * vertices, 0.0f);
   std::vector<double> xyz64(3 * vertices, 0.0);
-  UniformParams uniform;
+  SchemeSpec uniform = unguarded(Scheme::kUniform);
   uniform.segments = n;
-  uniform.normals = false;
+  uniform.vertex_normals = false;
   uniform.surface_data = false;
-  EscParams esc;
+  SchemeSpec esc = unguarded(Scheme::kEsc);
   esc.level = esc_level;
-  esc.normals = false;
+  esc.vertex_normals = false;
   esc.surface_data = false;
-  UniformParams pn_base_params;
-  pn_base_params.segments = 4;
-  pn_base_params.surface_data = false;
-  const Tessellation pn_base = tessellate_uniform(cups, cups_topo, pn_base_params);
-  PnParams pn;
-  pn.factor = pn_factor;
+  SchemeSpec pn_base_spec = unguarded(Scheme::kUniform);
+  pn_base_spec.segments = 4;
+  pn_base_spec.surface_data = false;
+  const Tessellation pn_base = tessellate(cups, cups_topo, pn_base_spec);
+  SchemeSpec pn = unguarded(Scheme::kPn);
+  pn.level = pn_factor;
   nlohmann::json& tp = doc["throughput"];
   tp["patches"] = cups.patches.size();
   tp["uniform_level"] = grid_level;
@@ -292,11 +293,11 @@ void run_bench(const BenchOptions& o) {
     g32["fraction_of_memset"] = g32["output_bytes_per_s"].get<double>() / memset_bw[k];
     g64["fraction_of_memset"] = g64["output_bytes_per_s"].get<double>() / memset_bw[k];
     Tessellation t;
-    const double su = timed_with_threads(threads, repeats, [&] { t = tessellate_uniform(cups, cups_topo, uniform); });
+    const double su = timed_with_threads(threads, repeats, [&] { t = tessellate(cups, cups_topo, uniform); });
     const nlohmann::json ju = rate_json(su, static_cast<double>(t.triangles.size()), mesh_bytes(t));
-    const double se = timed_with_threads(threads, repeats, [&] { t = tessellate_esc(cups, cups_topo, esc); });
+    const double se = timed_with_threads(threads, repeats, [&] { t = tessellate(cups, cups_topo, esc); });
     const nlohmann::json je = rate_json(se, static_cast<double>(t.triangles.size()), mesh_bytes(t));
-    const double sp = timed_with_threads(threads, repeats, [&] { t = tessellate_pn(pn_base, pn); });
+    const double sp = timed_with_threads(threads, repeats, [&] { t = tessellate_mesh(pn_base, pn); });
     const nlohmann::json jp = rate_json(sp, static_cast<double>(t.triangles.size()), mesh_bytes(t));
     per_triangle[0][k] = su / ju["triangles"].get<double>();
     per_triangle[1][k] = se / je["triangles"].get<double>();
@@ -316,10 +317,10 @@ void run_bench(const BenchOptions& o) {
   {
     const Model scene = replicate(cup, 100);
     const Topology topo = build_topology(scene);
-    UniformParams u3;
-    u3.segments = segments_for_level(3);
+    SchemeSpec u3 = unguarded(Scheme::kUniform);
+    u3.level = 3;
     u3.surface_data = false;
-    EscParams e3;
+    SchemeSpec e3 = unguarded(Scheme::kEsc);
     e3.level = 3;
     e3.surface_data = false;
     std::vector<float> buf(3 * uniform_grid_vertices(scene, 8));
@@ -329,9 +330,9 @@ void run_bench(const BenchOptions& o) {
     for (int k = 0; k < 2; ++k) {
       const int threads = k == 0 ? 1 : all;
       Tessellation t;
-      const double su = timed_with_threads(threads, repeats * 4, [&] { t = tessellate_uniform(scene, topo, u3); });
+      const double su = timed_with_threads(threads, repeats * 4, [&] { t = tessellate(scene, topo, u3); });
       const double ut = static_cast<double>(t.triangles.size());
-      const double se = timed_with_threads(threads, repeats * 4, [&] { t = tessellate_esc(scene, topo, e3); });
+      const double se = timed_with_threads(threads, repeats * 4, [&] { t = tessellate(scene, topo, e3); });
       const double et = static_cast<double>(t.triangles.size());
       const double sg = timed_with_threads(threads, repeats * 4, [&] { tessellate_uniform_grid(scene, 8, buf.data()); });
       const UniformGridPlan plan(scene, 8);
@@ -371,8 +372,8 @@ void run_bench(const BenchOptions& o) {
         continue;
       }
       Tessellation mesh;
-      const double t1 = timed_with_threads(1, repeats, [&] { mesh = tessellate_fitted(model, topo, ours); });
-      const double tall = timed_with_threads(all, repeats, [&] { mesh = tessellate_fitted(model, topo, ours); });
+      const double t1 = timed_with_threads(1, repeats, [&] { mesh = tessellate(model, topo, ours.spec); });
+      const double tall = timed_with_threads(all, repeats, [&] { mesh = tessellate(model, topo, ours.spec); });
       const DistanceReport cert = certify_distance(model, mesh);
       row["ours"] = {{"scheme", ours.scheme},
                      {"level", ours.fit.level},

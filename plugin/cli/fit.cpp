@@ -28,16 +28,16 @@ nlohmann::json fitted_model_json(const FittedModel& m) {
 
 nlohmann::json fit_result_json(const FitResult& r) {
   nlohmann::json j;
-  j["scheme"] = fit_scheme_name(r.scheme);
+  j["scheme"] = scheme_name(r.scheme);
   j["target_error"] = r.target_error;
   j["met"] = r.met;
-  if (r.scheme == FitScheme::kUniform) {
+  if (r.scheme == Scheme::kUniform) {
     j["segments"] = r.level;
   } else {
     j["level"] = r.level;
   }
-  if (r.scheme == FitScheme::kEsc) j["threshold"] = r.threshold;
-  if (r.scheme == FitScheme::kPn) j["base_level"] = r.base_level;
+  if (r.scheme == Scheme::kEsc) j["threshold"] = r.threshold;
+  if (r.scheme == Scheme::kPn) j["base_level"] = r.base_level;
   j["certified_error"] = std::isfinite(r.certified_error) ? nlohmann::json(r.certified_error) : nlohmann::json(nullptr);
   j["certified_lower_bound"] = r.lower_bound;
   j["triangles"] = r.triangles;
@@ -51,9 +51,9 @@ nlohmann::json fit_result_json(const FitResult& r) {
   nlohmann::json samples = nlohmann::json::array();
   for (const FitSample& s : r.samples) {
     nlohmann::json k;
-    k[r.scheme == FitScheme::kUniform ? "segments" : "level"] = s.level;
-    if (r.scheme == FitScheme::kEsc) k["threshold"] = s.threshold;
-    if (r.scheme == FitScheme::kPn) k["base_level"] = s.base_level;
+    k[r.scheme == Scheme::kUniform ? "segments" : "level"] = s.level;
+    if (r.scheme == Scheme::kEsc) k["threshold"] = s.threshold;
+    if (r.scheme == Scheme::kPn) k["base_level"] = s.base_level;
     k["triangles"] = s.triangles;
     k["certified_error"] = std::isfinite(s.certified_error) ? nlohmann::json(s.certified_error) : nlohmann::json(nullptr);
     k["lower_bound"] = s.lower_bound;
@@ -65,7 +65,7 @@ nlohmann::json fit_result_json(const FitResult& r) {
     nlohmann::json patches = nlohmann::json::array();
     for (const PatchChoice& p : r.patches) {
       nlohmann::json k{{"patch", p.patch}, {"level", p.level}, {"certified_error", p.certified_error}};
-      if (r.scheme == FitScheme::kEsc) k["threshold"] = p.threshold;
+      if (r.scheme == Scheme::kEsc) k["threshold"] = p.threshold;
       patches.push_back(k);
     }
     j["patches"] = patches;
@@ -99,13 +99,13 @@ void run_fit(const FitCliOptions& o) {
   options.esc_per_edge_levels = o.per_edge_levels;
   ProgressLine progress("sagitta fit");
   options.progress = [&](const FitProgress& p) { progress.update(p.step, p.steps, p.stage + " (certifying)"); };
-  const FitResult result = fit_to_error(model, topology, parse_fit_scheme(o.scheme), o.target_error, options);
+  const FitResult result = fit_to_error(model, topology, parse_scheme(o.scheme), o.target_error, options);
   progress.clear();
   nlohmann::json doc = fit_result_json(result);
   doc["input"] = o.input.empty() ? "default" : o.input;
   doc["model"] = model.name;
   doc["per_patch"] = o.per_patch;
-  if (result.scheme == FitScheme::kEsc) doc["per_edge_levels"] = o.per_edge_levels;
+  if (result.scheme == Scheme::kEsc) doc["per_edge_levels"] = o.per_edge_levels;
   if (!o.out.empty()) {
     io::write_mesh(result.mesh, o.out);
     doc["output"] = o.out;
@@ -113,9 +113,9 @@ void run_fit(const FitCliOptions& o) {
   if (!o.json.empty()) write_json(o.json, doc);
   std::cout << "sagitta fit: " << model.name << ", " << o.scheme << (o.per_patch ? " per patch" : "") << ", target "
             << o.target_error << ": ";
-  if (result.scheme == FitScheme::kUniform) std::cout << "segments " << result.level;
-  if (result.scheme == FitScheme::kEsc) std::cout << "level " << result.level << ", threshold " << result.threshold;
-  if (result.scheme == FitScheme::kPn) std::cout << "base level " << result.base_level << ", level " << result.level;
+  if (result.scheme == Scheme::kUniform) std::cout << "segments " << result.level;
+  if (result.scheme == Scheme::kEsc) std::cout << "level " << result.level << ", threshold " << result.threshold;
+  if (result.scheme == Scheme::kPn) std::cout << "base level " << result.base_level << ", level " << result.level;
   std::cout << ", " << result.triangles << " triangles, certified error <= " << result.certified_error << " ("
             << (result.met ? "meets" : "MISSES") << " the target), " << result.iterations << " verification steps, "
             << result.certifications << " certifications, " << result.seconds << " s\n";

@@ -9,7 +9,7 @@
 #include "sagitta/fit.hpp"
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/occt/cad.hpp"
-#include "sagitta/pn.hpp"
+#include "sagitta/scheme.hpp"
 #include "sagitta/uniform.hpp"
 
 #include <algorithm>
@@ -101,30 +101,19 @@ nlohmann::json run_setting(const Model& model, const Topology& topology, const S
     distance = peer.distance;
     point["route"] = peer.route;
   } else {
+    // The sweep's settings are bounded by kMaxSweepTriangles, so no front end's size guard.
+    SchemeSpec spec;
+    spec.scheme = parse_scheme(s.scheme);
+    spec.guard = false;
+    spec.level = s.level;
+    if (spec.scheme == Scheme::kEsc) spec.threshold = s.value;
+    if (spec.scheme == Scheme::kPn) spec.base_level = s.base_level;
     // Tessellation time: the fastest of up to three runs (the first pays for thread start-up).
-    const auto tessellate = [&] {
-      if (s.scheme == "uniform") {
-        UniformParams params;
-        params.segments = segments_for_level(s.level);
-        return tessellate_uniform(model, topology, params);
-      }
-      if (s.scheme == "esc") {
-        EscParams params;
-        params.level = s.level;
-        params.threshold = s.value;
-        return tessellate_esc(model, topology, params);
-      }
-      UniformParams base;
-      base.segments = segments_for_level(s.base_level);
-      PnParams params;
-      params.factor = s.level;
-      return tessellate_pn(tessellate_uniform(model, topology, base), params);
-    };
     Tessellation mesh;
     seconds = std::numeric_limits<double>::infinity();
     for (int run = 0; run < 3 && (run == 0 || mesh.triangles.size() < 100'000); ++run) {
       const Stopwatch clock;
-      mesh = tessellate();
+      mesh = tessellate(model, topology, spec);
       seconds = std::min(seconds, clock.seconds());
     }
     triangles = mesh.triangles.size();

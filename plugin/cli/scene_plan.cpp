@@ -6,6 +6,7 @@
 #include "sagitta/fixtures.hpp"
 #include "sagitta/io/model_io.hpp"
 #include "sagitta/mesh_check.hpp"
+#include "sagitta/scheme.hpp"
 #include "sagitta/uniform.hpp"
 
 #include <glm/geometric.hpp>
@@ -34,10 +35,11 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 // +1 / -1 when the model is closed and consistently oriented (du x dv out of / into the solid), else 0.
 int closed_orientation(const Model& model, const Topology& topology) {
   if (topology.free_edges() != 0 || topology.nonmanifold_edges() != 0 || !topology.near_misses.empty()) return 0;
-  UniformParams params;
-  params.segments = 4;
-  params.normals = false;
-  const Tessellation mesh = tessellate_uniform(model, topology, params);
+  SchemeSpec spec;
+  spec.segments = 4;
+  spec.vertex_normals = false;
+  spec.guard = false;
+  const Tessellation mesh = tessellate(model, topology, spec);
   const TopologyReport report = check_mesh_topology(mesh, &model, &topology);
   if (!report.watertight() || report.open_edges != 0 || report.inconsistent_orientation_edges != 0) return 0;
   double volume = 0.0;  // six times the signed volume (divergence theorem)
@@ -204,15 +206,16 @@ class ScenePlanner::Caches {
   Tessellation tessellate(size_t model, const std::vector<int>& q) const {
     const Model& m = scene_.models[model];
     const Topology& topology = scene_.topologies[model];
+    SchemeSpec spec;
+    spec.guard = false;  // the planner bounds its sizes itself
     if (esc_) {
-      EscParams params;
-      params.level = std::min(scene_.scene.max_level, kMaxEscLevel);
-      for (int index : q) params.patch_thresholds.push_back(threshold(model, index));
-      return tessellate_esc(m, topology, params);
+      spec.scheme = Scheme::kEsc;
+      spec.level = std::min(scene_.scene.max_level, kMaxEscLevel);
+      for (int index : q) spec.patch_thresholds.push_back(threshold(model, index));
+    } else {
+      spec.patch_levels = q;
     }
-    UniformParams params;
-    params.patch_levels = q;
-    return tessellate_uniform(m, topology, params);
+    return sagitta::tessellate(m, topology, spec);
   }
 
   // Certified error of patch p of `model` when every patch uses parameter q (cached).

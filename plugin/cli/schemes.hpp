@@ -2,6 +2,7 @@
 #pragma once
 
 #include "sagitta/model.hpp"
+#include "sagitta/scheme.hpp"
 #include "sagitta/tessellation.hpp"
 
 #include <CLI/CLI.hpp>
@@ -29,26 +30,14 @@ struct SchemeOptions {
   std::string normals = "file";      // mesh input: file | smooth | face
 };
 
-// The schemes --scheme accepts.
-std::vector<std::string> scheme_names();
-
 // Adds --scheme, --level, --segments, --threshold and --max-triangles to a subcommand.
 void add_scheme_options(CLI::App* command, SchemeOptions& options);
 
-// The resource guard of every command that tessellates: refuses (one line saying what to do) an
-// estimated output above options.max_triangles, or whose memory (the mesh plus `other_bytes`)
-// exceeds --max-memory (sagitta/budget.hpp; the kernels check again where they allocate).
-void check_triangle_estimate(double estimate, const SchemeOptions& options, double other_bytes = 0.0);
+// The options as the scheme API's spec (the CLI has checked the names; an unknown pattern, variant or
+// normals name reads as the default, "integer", "basic", "file").
+SchemeSpec scheme_spec(const SchemeOptions& options);
 
-// Triangles the chosen scheme makes on the model at most (esc: its full pattern; pn on a patch
-// model: the uniform base, whose refinement run_scheme checks before running it).
-double scheme_triangle_estimate(const Model& model, const SchemeOptions& options);
-
-// Runs the chosen scheme; fills `stats` with the scheme's parameters and counts (not timing).
-// Refuses, with a message, a tessellation whose estimated size exceeds max_triangles.
-Tessellation run_scheme(const Model& model, const Topology& topology, const SchemeOptions& options, nlohmann::json& stats);
-
-// The pn scheme on a triangle mesh (normals chosen by options.normals); fills `stats` likewise.
-Tessellation run_pn_on_mesh(const Tessellation& mesh, const SchemeOptions& options, nlohmann::json& stats);
+// The stats fields of a run: the scheme's name, the parameters it used and its counts.
+nlohmann::json scheme_stats_json(const SchemeStats& stats);
 
 }  // namespace sagitta::cli

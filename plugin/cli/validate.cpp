@@ -106,13 +106,13 @@ int run_validate(const ValidateOptions& o) {
     mesh = io::read_mesh(o.mesh);
     doc["mesh"] = o.mesh;
   } else {
-    SchemeOptions scheme = o.scheme;
-    scheme.surface_data = true;
-    nlohmann::json stats;
+    SchemeSpec spec = scheme_spec(o.scheme);
+    spec.surface_data = true;
+    SchemeStats stats;
     const Stopwatch clock;
-    mesh = run_scheme(model, topology, scheme, stats);
+    mesh = tessellate(model, topology, spec, &stats);
     tessellation_seconds = clock.seconds();
-    doc["tessellation"] = stats;
+    doc["tessellation"] = scheme_stats_json(stats);
     doc["tessellation"]["seconds"] = tessellation_seconds;
   }
   doc["triangles"] = mesh.triangles.size();

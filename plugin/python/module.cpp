@@ -12,8 +12,9 @@
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/io/model_io.hpp"
 #include "sagitta/mesh_check.hpp"
-#include "sagitta/uniform.hpp"
 #include "sagitta/occt/cad.hpp"
+#include "sagitta/scheme.hpp"
+#include "sagitta/uniform.hpp"
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -152,13 +153,16 @@ Tessellation mesh_from_arrays(py::array_t<double, py::array::c_style | py::array
 std::pair<Tessellation, py::dict> tessellate(const Model& model, const cli::SchemeOptions& options_in) {
   cli::SchemeOptions options = options_in;
   options.surface_data = true;
+  const SchemeSpec spec = cli::scheme_spec(options);
   nlohmann::json stats;
   Tessellation mesh;
   {
     py::gil_scoped_release release;
     const Topology topology = build_topology(model);
+    SchemeStats scheme_stats;
     const auto start = Clock::now();
-    mesh = cli::run_scheme(model, topology, options, stats);
+    mesh = sagitta::tessellate(model, topology, spec, &scheme_stats);
+    stats = cli::scheme_stats_json(scheme_stats);
     stats["seconds"] = seconds_since(start);
     stats["patches"] = model.patches.size();
     stats["vertices"] = mesh.positions.size();
@@ -346,7 +350,7 @@ PYBIND11_MODULE(_sagitta, m) {
       "fit",
       [](const Model& model, const std::string& scheme, double target_error, int max_refinements) {
         if (!(target_error > 0.0) || !std::isfinite(target_error)) throw InputError("the target error must be a positive number");
-        const FitScheme fit_scheme = parse_fit_scheme(scheme);
+        const Scheme fit_scheme = parse_scheme(scheme);
         nlohmann::json doc;
         {
           py::gil_scoped_release release;
@@ -363,13 +367,14 @@ PYBIND11_MODULE(_sagitta, m) {
       "tessellate_uniform",
       [](const Model& model, std::optional<int> level, std::optional<int> segments) {
         if (level.has_value() == segments.has_value()) throw InputError("give exactly one of level or segments");
-        UniformParams params;
-        params.segments = level ? segments_for_level(*level) : *segments;
-        params.surface_data = false;
+        SchemeSpec spec;
+        spec.segments = level ? segments_for_level(*level) : *segments;
+        spec.surface_data = false;
+        spec.guard = false;  // as the kernel alone: no size guard
         const Topology topo = build_topology(model);
         py::gil_scoped_release release;
         const auto start = Clock::now();
-        Tessellation t = tessellate_uniform(model, topo, params);
+        Tessellation t = sagitta::tessellate(model, topo, spec);
         const double seconds = seconds_since(start);
         py::gil_scoped_acquire acquire;
         return mesh_dict(t, seconds);
