@@ -50,6 +50,25 @@ std::string pn_pattern_name(PnPatternKind pattern) {
 
 std::string pn_variant_name(PnVariant variant) { return variant == PnVariant::kAen ? "aen" : "basic"; }
 
+PnNormals parse_pn_normals(const std::string& name) {
+  if (name == "file") return PnNormals::kFile;
+  if (name == "smooth") return PnNormals::kSmooth;
+  if (name == "face") return PnNormals::kFace;
+  throw InputError("unknown normals '" + name + "' (expected file, smooth or face)");
+}
+
+PnPatternKind parse_pn_pattern(const std::string& name) {
+  if (name == "integer") return PnPatternKind::kInteger;
+  if (name == "fractional_odd") return PnPatternKind::kFractionalOdd;
+  throw InputError("unknown pattern '" + name + "' (expected integer or fractional_odd)");
+}
+
+PnVariant parse_pn_variant(const std::string& name) {
+  if (name == "basic") return PnVariant::kBasic;
+  if (name == "aen") return PnVariant::kAen;
+  throw InputError("unknown pn variant '" + name + "' (expected basic or aen)");
+}
+
 void check_triangle_estimate(double estimate, const SchemeSpec& spec, double other_bytes) {
   if (estimate > static_cast<double>(spec.max_triangles)) {
     std::ostringstream s;

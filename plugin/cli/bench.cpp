@@ -4,6 +4,8 @@
 // certified validation time against tessellation time. Prints a table; --json writes the numbers.
 #include "commands.hpp"
 
+#include "sagitta/app/fit_search.hpp"
+
 #include "sagitta/esc.hpp"
 #include "sagitta/fit.hpp"
 #include "sagitta/io/model_io.hpp"
@@ -118,101 +120,12 @@ void print_rate(const std::string& name, int threads, const nlohmann::json& j, d
   std::printf("\n");
 }
 
-struct Fitted {
-  std::string scheme;
-  FitResult fit;
-  SchemeSpec spec;  // the fitted setting (with surface data, so it can be certified)
-};
-
 // Bench times the kernels at sizes it chose: no front end's size guard.
 SchemeSpec unguarded(Scheme scheme) {
   SchemeSpec spec;
   spec.scheme = scheme;
   spec.guard = false;
   return spec;
-}
-
-// Fewest-triangle setting among uniform (global and per patch) and ESC that certifies <= target.
-bool fit_ours(const Model& model, const Topology& topo, double target, Fitted& best) {
-  bool found = false;
-  auto consider = [&](Fitted f) {
-    if (!f.fit.met) return;
-    if (!found || f.fit.triangles < best.fit.triangles) {
-      best = std::move(f);
-      found = true;
-    }
-  };
-  for (int kind = 0; kind < 3; ++kind) {
-    Fitted f;
-    FitOptions options;
-    options.per_patch = kind == 1;
-    const Scheme scheme = kind == 2 ? Scheme::kEsc : Scheme::kUniform;
-    f.fit = fit_to_error(model, topo, scheme, target, options);
-    f.fit.mesh = Tessellation();
-    f.spec = unguarded(scheme);
-    if (kind == 2) {
-      f.scheme = "esc";
-      f.spec.level = f.fit.level;
-      f.spec.threshold = f.fit.threshold;
-    } else if (kind == 1) {
-      f.scheme = "uniform_per_patch";
-      for (const PatchChoice& c : f.fit.patches) f.spec.patch_levels.push_back(c.level);
-    } else {
-      f.scheme = "uniform";
-      f.spec.segments = f.fit.level;
-    }
-    consider(std::move(f));
-  }
-  return found;
-}
-
-// OCCT's largest deflection (searched by factors of 2, then one geometric midpoint) whose mesh
-// certifies <= target. Returns false when none of the tried deflections certifies.
-bool fit_occt(const Model& model, double target, occt::PeerResult& best, double& deflection) {
-  occt::PeerOptions options;
-  options.certify = fit_certify_defaults();
-  auto passes = [&](double d, occt::PeerResult& r) {
-    options.deflection = d;
-    r = occt::peer_mesh_model(model, options);
-    return r.distance.hausdorff.certified && r.distance.hausdorff.upper <= target;
-  };
-  double pass = 0.0, fail = 0.0;
-  occt::PeerResult r;
-  double d = target;
-  if (passes(d, r)) {
-    pass = d;
-    best = r;
-    for (int i = 0; i < 4 && fail == 0.0; ++i) {
-      d *= 2.0;
-      if (passes(d, r)) {
-        pass = d;
-        best = r;
-      } else {
-        fail = d;
-      }
-    }
-  } else {
-    fail = d;
-    for (int i = 0; i < 6 && pass == 0.0; ++i) {
-      d *= 0.5;
-      if (passes(d, r)) {
-        pass = d;
-        best = r;
-      } else {
-        fail = d;
-      }
-    }
-  }
-  if (pass == 0.0) return false;
-  if (fail > 0.0) {
-    const double mid = std::sqrt(pass * fail);
-    if (passes(mid, r)) {
-      pass = mid;
-      best = r;
-    }
-  }
-  deflection = pass;
-  return true;
 }
 
 void run_bench(const BenchOptions& o) {
@@ -365,8 +278,8 @@ void run_bench(const BenchOptions& o) {
     const Topology topo = build_topology(model);
     for (double target : targets) {
       nlohmann::json row = {{"model", file}, {"target", target}};
-      Fitted ours;
-      if (!fit_ours(model, topo, target, ours)) {
+      app::FittedSetting ours;
+      if (!app::fit_fewest_triangles(model, topo, target, ours)) {
         row["ours"] = nullptr;
         doc["tea_set"].push_back(row);
         continue;
@@ -386,7 +299,7 @@ void run_bench(const BenchOptions& o) {
                      {"validation_over_tessellation", cert.seconds / tall}};
       occt::PeerResult peer;
       double deflection = 0.0;
-      const bool occt_ok = !o.skip_occt && fit_occt(model, target, peer, deflection);
+      const bool occt_ok = !o.skip_occt && app::fit_occt_deflection(model, target, peer, deflection);
       if (occt_ok) {
         row["occt"] = {{"deflection", deflection},
                        {"triangles", peer.triangles},

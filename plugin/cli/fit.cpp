@@ -1,6 +1,5 @@
 // `sagitta fit`: choose a scheme's parameter for a requested certified accuracy (sagitta/fit.hpp).
 #include "commands.hpp"
-#include "fit_json.hpp"
 #include "progress.hpp"
 
 #include "sagitta/io/mesh_io.hpp"
@@ -10,68 +9,6 @@
 #include <memory>
 
 namespace sagitta::cli {
-
-nlohmann::json fitted_model_json(const FittedModel& m) {
-  nlohmann::json j;
-  j["model"] = m.name;
-  j["formula"] = m.formula;
-  j["variable"] = m.variable;
-  if (m.level >= 0) j["level"] = m.level;
-  nlohmann::json params;
-  for (size_t i = 0; i < m.parameters.size(); ++i) params[m.parameter_names[i]] = m.parameters[i];
-  j["parameters"] = params;
-  j["log_residuals"] = m.residuals;
-  j["cost"] = m.cost;
-  j["loss"] = "Huber(0.1) on log(error)";
-  return j;
-}
-
-nlohmann::json fit_result_json(const FitResult& r) {
-  nlohmann::json j;
-  j["scheme"] = scheme_name(r.scheme);
-  j["target_error"] = r.target_error;
-  j["met"] = r.met;
-  if (r.scheme == Scheme::kUniform) {
-    j["segments"] = r.level;
-  } else {
-    j["level"] = r.level;
-  }
-  if (r.scheme == Scheme::kEsc) j["threshold"] = r.threshold;
-  if (r.scheme == Scheme::kPn) j["base_level"] = r.base_level;
-  j["certified_error"] = std::isfinite(r.certified_error) ? nlohmann::json(r.certified_error) : nlohmann::json(nullptr);
-  j["certified_lower_bound"] = r.lower_bound;
-  j["triangles"] = r.triangles;
-  j["iterations"] = r.iterations;
-  j["refinement_steps"] = std::max(r.iterations - 1, 0);
-  j["certifications"] = r.certifications;
-  j["seconds"] = r.seconds;
-  nlohmann::json models = nlohmann::json::array();
-  for (const FittedModel& m : r.models) models.push_back(fitted_model_json(m));
-  j["fit"] = models;
-  nlohmann::json samples = nlohmann::json::array();
-  for (const FitSample& s : r.samples) {
-    nlohmann::json k;
-    k[r.scheme == Scheme::kUniform ? "segments" : "level"] = s.level;
-    if (r.scheme == Scheme::kEsc) k["threshold"] = s.threshold;
-    if (r.scheme == Scheme::kPn) k["base_level"] = s.base_level;
-    k["triangles"] = s.triangles;
-    k["certified_error"] = std::isfinite(s.certified_error) ? nlohmann::json(s.certified_error) : nlohmann::json(nullptr);
-    k["lower_bound"] = s.lower_bound;
-    k["seconds"] = s.seconds;
-    samples.push_back(k);
-  }
-  j["samples"] = samples;
-  if (!r.patches.empty()) {
-    nlohmann::json patches = nlohmann::json::array();
-    for (const PatchChoice& p : r.patches) {
-      nlohmann::json k{{"patch", p.patch}, {"level", p.level}, {"certified_error", p.certified_error}};
-      if (r.scheme == Scheme::kEsc) k["threshold"] = p.threshold;
-      patches.push_back(k);
-    }
-    j["patches"] = patches;
-  }
-  return j;
-}
 
 namespace {
 

@@ -2,7 +2,6 @@
 // certify each mesh, fit ESC to a target error, and write the trade report into an output folder,
 // printing where each file is.
 #include "commands.hpp"
-#include "fit_json.hpp"
 #include "progress.hpp"
 #include "report.hpp"
 #include "schemes.hpp"

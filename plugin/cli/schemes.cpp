@@ -41,48 +41,14 @@ SchemeSpec scheme_spec(const SchemeOptions& o) {
   spec.segments = o.segments;
   spec.threshold = o.threshold;
   spec.per_edge_levels = o.per_edge_levels;
-  spec.pattern = o.pattern == "fractional_odd" ? PnPatternKind::kFractionalOdd : PnPatternKind::kInteger;
-  spec.pn_variant = o.pn_variant == "aen" ? PnVariant::kAen : PnVariant::kBasic;
+  spec.pattern = parse_pn_pattern(o.pattern);
+  spec.pn_variant = parse_pn_variant(o.pn_variant);
   spec.base_level = o.base_level;
   spec.tess_factor = o.tess_factor;
-  spec.normals = o.normals == "smooth" ? PnNormals::kSmooth : o.normals == "face" ? PnNormals::kFace : PnNormals::kFile;
+  spec.normals = parse_pn_normals(o.normals);
   spec.max_triangles = o.max_triangles;
   spec.surface_data = o.surface_data;
   return spec;
-}
-
-nlohmann::json scheme_stats_json(const SchemeStats& s) {
-  nlohmann::json j;
-  j["scheme"] = scheme_name(s.scheme);
-  switch (s.scheme) {
-    case Scheme::kUniform:
-      if (s.level >= 0) j["level"] = s.level;
-      j["segments"] = s.segments;
-      break;
-    case Scheme::kEsc:
-      j["level"] = s.level;
-      j["threshold"] = s.threshold;
-      j["per_edge_levels"] = s.per_edge_levels;
-      j["candidates"] = s.esc.candidates;
-      j["inserted_vertices"] = s.esc.inserted_vertices;
-      j["strips"] = s.esc.strips;
-      break;
-    case Scheme::kPn:
-      if (s.base_level >= 0) j["base_level"] = s.base_level;
-      j["pattern"] = pn_pattern_name(s.pattern);
-      j["pn_variant"] = pn_variant_name(s.pn_variant);
-      j["factor"] = s.factor;
-      j["normals"] = pn_normals_name(s.normals);
-      j["segments_per_edge"] = s.pn.segments_per_edge;
-      j["input_triangles"] = s.pn.input_triangles;
-      j["skipped_triangles"] = s.pn.skipped_triangles;
-      j["crease_edges"] = s.pn.crease_edges;
-      j["open_edges"] = s.pn.open_edges;
-      j["crack_edges"] = s.pn.crack_edges;
-      j["max_crack_gap"] = s.pn.max_crack_gap;
-      break;
-  }
-  return j;
 }
 
 }  // namespace sagitta::cli

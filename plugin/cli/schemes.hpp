@@ -1,6 +1,7 @@
 // Scheme selection shared by every subcommand that tessellates (tessellate, validate, fit, bench).
 #pragma once
 
+#include "sagitta/app/json.hpp"
 #include "sagitta/model.hpp"
 #include "sagitta/scheme.hpp"
 #include "sagitta/tessellation.hpp"
@@ -33,11 +34,9 @@ struct SchemeOptions {
 // Adds --scheme, --level, --segments, --threshold and --max-triangles to a subcommand.
 void add_scheme_options(CLI::App* command, SchemeOptions& options);
 
-// The options as the scheme API's spec (the CLI has checked the names; an unknown pattern, variant or
-// normals name reads as the default, "integer", "basic", "file").
+// The options as the scheme API's spec (CLI11 has checked the names).
 SchemeSpec scheme_spec(const SchemeOptions& options);
 
-// The stats fields of a run: the scheme's name, the parameters it used and its counts.
-nlohmann::json scheme_stats_json(const SchemeStats& stats);
+using app::scheme_stats_json;
 
 }  // namespace sagitta::cli

@@ -27,9 +27,13 @@ std::vector<std::string> scheme_names();
 // Normals of a mesh refined by PN: the mesh's own (computed when it has none), angle-weighted
 // smooth normals, or one normal per face (every edge a crease).
 enum class PnNormals { kFile, kSmooth, kFace };
+// The names of the pn options, and the options by name (InputError for any other name).
 std::string pn_normals_name(PnNormals normals);      // "file" | "smooth" | "face"
 std::string pn_pattern_name(PnPatternKind pattern);  // "integer" | "fractional_odd"
 std::string pn_variant_name(PnVariant variant);      // "basic" | "aen"
+PnNormals parse_pn_normals(const std::string& name);
+PnPatternKind parse_pn_pattern(const std::string& name);
+PnVariant parse_pn_variant(const std::string& name);
 
 // A scheme and its parameters, as the CLI options give them (-1: not given).
 struct SchemeSpec {

@@ -1,4 +1,4 @@
-#include "scene_plan.hpp"
+#include "sagitta/app/scene_plan.hpp"
 
 #include "sagitta/budget.hpp"
 #include "sagitta/certify.hpp"
@@ -9,9 +9,9 @@
 #include "sagitta/scheme.hpp"
 #include "sagitta/uniform.hpp"
 
+#include <tbb/parallel_for.h>
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
@@ -21,7 +21,7 @@
 #include <limits>
 #include <map>
 
-namespace sagitta::scene {
+namespace sagitta::app::scene {
 
 namespace {
 
@@ -265,7 +265,8 @@ class ScenePlanner::Caches {
       const Topology::SideInfo& info = topology.side(p, s);
       int finest = -1;
       if (!info.collapsed) {
-        for (const SideRef& use : topology.edges[static_cast<size_t>(info.edge)].uses) finest = std::max(finest, q[use.patch]);
+        for (const SideRef& use : topology.edges[static_cast<size_t>(info.edge)].uses)
+          finest = std::max(finest, q[use.patch]);
       }
       sides[static_cast<size_t>(s)] = finest;
     }
@@ -344,10 +345,12 @@ LoadedScene load_scene(const io::Scene& scene, const std::string& scene_dir, con
     const std::string path = scene_model_path(m, scene_dir, data_dir);
     if (path.empty()) {
       const std::string name = m.source.substr(8);
-      model = name == "pillow_box" ? fixtures::pillow_box() : name == "rational_torus" ? fixtures::rational_torus()
-                                                                                         : fixtures::default_model();
+      model = name == "pillow_box"       ? fixtures::pillow_box()
+              : name == "rational_torus" ? fixtures::rational_torus()
+                                         : fixtures::default_model();
     } else {
-      if (!std::filesystem::exists(path)) throw InputError("scene model \"" + m.name + "\": " + path + ": no such file");
+      if (!std::filesystem::exists(path))
+        throw InputError("scene model \"" + m.name + "\": " + path + ": no such file");
       model = io::read_patch_model(path);
     }
     model.name = m.name;
@@ -440,7 +443,8 @@ SceneResult ScenePlanner::run(const io::SceneCamera& camera, const std::function
         if (c.state != PatchState::kVisible) continue;
         const std::array<int, 4> sides = planner.side_parameters(mi, p, q);
         const bool stitched = std::any_of(sides.begin(), sides.end(), [&](int s) { return s > q[p]; });
-        c.certified_error = stitched ? planner.stitched_error(mi, p, q, mesh, by_patch[p]) : planner.plain_error(mi, p, q[p]);
+        c.certified_error =
+            stitched ? planner.stitched_error(mi, p, q, mesh, by_patch[p]) : planner.plain_error(mi, p, q[p]);
         if (!(c.certified_error <= c.required_error) && q[p] < planner.finest() && stitched) {
           ++q[p];
           ++result.stitch_refinements;
@@ -482,7 +486,8 @@ SceneResult ScenePlanner::run(const io::SceneCamera& camera, const std::function
     Tessellation& out = result.mesh;
     budget::check_memory(tessellation_bytes(double(out.triangles.size() + mesh.triangles.size()),
                                             double(out.positions.size() + mesh.positions.size())),
-                         "the scene's mesh after instance " + std::to_string(inst), "raise the tolerance or --max-memory");
+                         "the scene's mesh after instance " + std::to_string(inst),
+                         "raise the tolerance or --max-memory");
     for (size_t t = 0; t < mesh.triangles.size(); ++t) {
       const int64_t wp = world_patch[mesh.triangle_patch[t]];
       if (wp < 0) continue;
@@ -515,4 +520,4 @@ SceneResult ScenePlanner::run(const io::SceneCamera& camera, const std::function
   return result;
 }
 
-}  // namespace sagitta::scene
+}  // namespace sagitta::app::scene
