@@ -44,6 +44,58 @@ struct ValidateOptions {
 
 namespace {
 
+// The requirements (--max-error, --require-watertight) that failed, each as one line; records
+// max_error and requirements_failed in `doc`.
+nlohmann::json failed_requirements(const ValidateOptions& o, const Validation& validation, nlohmann::json& doc) {
+  const DistanceReport& distance = validation.distance;
+  nlohmann::json failed = nlohmann::json::array();
+  if (o.max_error >= 0.0) {
+    doc["max_error"] = o.max_error;
+    if (!(distance.hausdorff.upper <= o.max_error)) {
+      failed.push_back(distance.hausdorff.lower > o.max_error ? "max-error: the distance exceeds it (lower bound above)"
+                                                              : "max-error: not certified (upper bound above)");
+    }
+  }
+  if (o.require_watertight && !validation.topology.watertight())
+    failed.push_back("watertight: cracks, T-junctions or non-manifold edges found");
+  doc["requirements_failed"] = failed;
+  return failed;
+}
+
+// --error-ply: the mesh as binary PLY with each face's certified upper bound (rounded up to float).
+void write_error_ply(const ValidateOptions& o, const Tessellation& mesh, const DistanceReport& distance,
+                     nlohmann::json& doc) {
+  if (distance.triangle_upper.size() != mesh.triangles.size()) {
+    throw InputError("--error-ply needs a mesh with (u, v): per-triangle bounds exist only for our schemes' meshes");
+  }
+  std::vector<float> error(distance.triangle_upper.size());
+  for (size_t t = 0; t < error.size(); ++t) {
+    const float f = static_cast<float>(distance.triangle_upper[t]);
+    error[t] = f < distance.triangle_upper[t] ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+  }
+  io::MeshWriteOptions w;
+  w.face_error = &error;
+  io::write_ply(mesh, o.error_ply, w);
+  doc["error_ply"] = o.error_ply;
+}
+
+// The one-paragraph summary on stdout.
+void print_validation(const Validation& validation, const Tessellation& mesh, const nlohmann::json& doc) {
+  const DistanceReport& distance = validation.distance;
+  const TopologyReport& topo = validation.topology;
+  std::cout << "hausdorff in [" << distance.hausdorff.lower << ", " << distance.hausdorff.upper << "]"
+            << (distance.hausdorff.certified ? "" : " (upper not certified)") << "; mesh->surface ["
+            << distance.mesh_to_surface.lower << ", " << distance.mesh_to_surface.upper << "]; surface->mesh ["
+            << distance.surface_to_mesh.lower << ", " << distance.surface_to_mesh.upper << "]; "
+            << mesh.triangles.size() << " triangles; open edges " << topo.open_edges << " (model boundary "
+            << topo.model_boundary_edges << ", cracks " << topo.crack_edges << "), T-junctions " << topo.t_junctions
+            << ", non-manifold " << topo.non_manifold_edges << ", misoriented " << topo.inconsistent_orientation_edges
+            << ", duplicated faces " << topo.duplicated_faces << "; components " << topo.components << " (closed "
+            << topo.closed_components << ", inside-out " << topo.inside_out_components << "); "
+            << doc["seconds"].get<double>() << " s\n";
+  if (!distance.not_certified_reason.empty()) std::cout << "not certified: " << distance.not_certified_reason << "\n";
+}
+
 int run_validate(const ValidateOptions& o) {
   check_outputs({{"--json", o.json}, {"--error-ply", o.error_ply}}, {o.input, o.mesh});
   if (o.max_depth < 0 || o.max_depth > 10) throw InputError("--max-depth must be in 0..10");
@@ -84,51 +136,16 @@ int run_validate(const ValidateOptions& o) {
     validation = validate_mesh(model, topology, mesh, options);
   }
   const DistanceReport& distance = validation.distance;
-  const TopologyReport& topo = validation.topology;
   doc.update(validation_json(model, topology, mesh, options, validation));
   if (tessellation_seconds > 0.0)
     doc["validation_to_tessellation_ratio"] = doc["seconds"].get<double>() / tessellation_seconds;
 
-  // Requirements.
-  nlohmann::json failed = nlohmann::json::array();
-  if (o.max_error >= 0.0) {
-    doc["max_error"] = o.max_error;
-    if (!(distance.hausdorff.upper <= o.max_error)) {
-      failed.push_back(distance.hausdorff.lower > o.max_error ? "max-error: the distance exceeds it (lower bound above)"
-                                                               : "max-error: not certified (upper bound above)");
-    }
-  }
-  if (o.require_watertight && !topo.watertight()) failed.push_back("watertight: cracks, T-junctions or non-manifold edges found");
-  doc["requirements_failed"] = failed;
-
-  if (!o.error_ply.empty()) {
-    if (distance.triangle_upper.size() != mesh.triangles.size()) {
-      throw InputError("--error-ply needs a mesh with (u, v): per-triangle bounds exist only for our schemes' meshes");
-    }
-    std::vector<float> error(distance.triangle_upper.size());
-    for (size_t t = 0; t < error.size(); ++t) {
-      const float f = static_cast<float>(distance.triangle_upper[t]);
-      error[t] = f < distance.triangle_upper[t] ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
-    }
-    io::MeshWriteOptions w;
-    w.face_error = &error;
-    io::write_ply(mesh, o.error_ply, w);
-    doc["error_ply"] = o.error_ply;
-  }
+  const nlohmann::json failed = failed_requirements(o, validation, doc);
+  if (!o.error_ply.empty()) write_error_ply(o, mesh, distance, doc);
   doc["total_seconds"] = total.seconds();
   if (!o.json.empty()) write_json(o.json, doc);
 
-  std::cout << "hausdorff in [" << distance.hausdorff.lower << ", " << distance.hausdorff.upper << "]"
-            << (distance.hausdorff.certified ? "" : " (upper not certified)") << "; mesh->surface ["
-            << distance.mesh_to_surface.lower << ", " << distance.mesh_to_surface.upper << "]; surface->mesh ["
-            << distance.surface_to_mesh.lower << ", " << distance.surface_to_mesh.upper << "]; " << mesh.triangles.size()
-            << " triangles; open edges " << topo.open_edges << " (model boundary " << topo.model_boundary_edges
-            << ", cracks " << topo.crack_edges << "), T-junctions " << topo.t_junctions << ", non-manifold "
-            << topo.non_manifold_edges << ", misoriented " << topo.inconsistent_orientation_edges << ", duplicated faces "
-            << topo.duplicated_faces << "; components " << topo.components << " (closed " << topo.closed_components
-            << ", inside-out " << topo.inside_out_components << "); "
-            << doc["seconds"].get<double>() << " s\n";
-  if (!distance.not_certified_reason.empty()) std::cout << "not certified: " << distance.not_certified_reason << "\n";
+  print_validation(validation, mesh, doc);
   for (const auto& f : failed) std::cerr << "sagitta validate: requirement failed: " << f.get<std::string>() << "\n";
   return failed.empty() ? 0 : kExitRequirementFailed;
 }

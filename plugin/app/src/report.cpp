@@ -158,6 +158,71 @@ nlohmann::json fitted_json(const FittedModel& m) {
 }
 
 // Per-scheme fits, the triangles each needs at the reference error, and the verdicts.
+// Fits the scheme's certified points (error against triangles `t`) and records in `s` the fit and the
+// triangles it needs for the reference error; returns those triangles (infinity when none fits).
+double fit_scheme_points(const std::string& scheme, const std::vector<double>& t, const std::vector<double>& e,
+                         double reference_error, nlohmann::json& s) {
+  if (scheme == "pn" && t.size() >= 3) {
+    // PN converges to the PN surface of its base mesh, not to the exact surface: a floor.
+    std::vector<double> x;
+    for (double v : t) x.push_back(1.0 / v);
+    const FittedModel m = fit_floor_plus_power(x, e);
+    s["fit"] = {{"model", "floor_plus_power"},
+                {"formula", "certified_error = F + C * triangles^-p"},
+                {"F", m.parameters[0]},
+                {"C", m.parameters[1]},
+                {"p", -m.parameters[2]},
+                {"log_residuals", m.residuals},
+                {"cost", m.cost},
+                {"loss", "Huber(0.1) on log(error)"}};
+    const double xs = invert_model(m, reference_error, 1e-12, 1.0);
+    const double needed = m.predict(xs) <= reference_error ? 1.0 / xs : std::numeric_limits<double>::infinity();
+    s["triangles_at_reference_error"] =
+        std::isfinite(needed) ? nlohmann::json(std::round(needed)) : nlohmann::json(nullptr);
+    if (!std::isfinite(needed)) s["note"] = "floor " + format_number(m.parameters[0]) + " above the reference error";
+    return needed;
+  }
+  if (t.size() >= 2 && *std::max_element(t.begin(), t.end()) > *std::min_element(t.begin(), t.end())) {
+    const FittedModel m = fit_power_law(t, e);
+    s["fit"] = fitted_json(m);
+    // Triangles the fitted model needs for the reference error (error decreasing in triangles).
+    const double p = m.parameters[1];
+    const double needed =
+        p < 0.0 ? std::pow(reference_error / m.parameters[0], 1.0 / p) : std::numeric_limits<double>::infinity();
+    s["triangles_at_reference_error"] =
+        std::isfinite(needed) ? nlohmann::json(std::round(needed)) : nlohmann::json(nullptr);
+    return needed;
+  }
+  return std::numeric_limits<double>::infinity();
+}
+
+// The scheme's verdict line and rank against the scheme that needs the fewest triangles.
+void add_verdict(const std::string& scheme, nlohmann::json& s, double reference_error, const std::string& best_scheme,
+                 double best_needed) {
+  std::ostringstream v;
+  v << s["on_pareto_front"].get<int>() << " of " << s["points"].get<int>() << " settings on the error/triangles front, "
+    << s["on_time_pareto_front"].get<int>() << " on the error/time front";
+  if (s.contains("triangles_at_reference_error") && !s["triangles_at_reference_error"].is_null()) {
+    const double needed = s["triangles_at_reference_error"].get<double>();
+    v << "; the fit needs about " << std::llround(needed) << " triangles for error " << format_number(reference_error);
+    if (scheme == best_scheme) {
+      v << " - the fewest of all schemes";
+      s["rank"] = "best";
+    } else {
+      v << " (" << format_number(needed / best_needed, 2) << "x " << best_scheme << ")";
+      s["rank"] = needed <= 1.25 * best_needed ? "close" : "costly";
+    }
+  } else if (s.contains("note")) {
+    v << "; cannot reach error " << format_number(reference_error) << " at this base level ("
+      << s["note"].get<std::string>() << ")";
+    s["rank"] = "floor";
+  } else {
+    v << "; too few certified settings to fit";
+    s["rank"] = "unknown";
+  }
+  s["verdict"] = v.str();
+}
+
 void summarise_model(nlohmann::json& entry, double reference_error) {
   const nlohmann::json& points = entry["points"];
   const std::vector<size_t> front = pareto_front(points, "triangles");
@@ -184,70 +249,14 @@ void summarise_model(nlohmann::json& entry, double reference_error) {
     s["on_time_pareto_front"] = std::count_if(indices.begin(), indices.end(), [&](size_t i) {
       return std::find(time_front.begin(), time_front.end(), i) != time_front.end();
     });
-    if (scheme == "pn" && t.size() >= 3) {
-      // PN converges to the PN surface of its base mesh, not to the exact surface: a floor.
-      std::vector<double> x;
-      for (double v : t) x.push_back(1.0 / v);
-      const FittedModel m = fit_floor_plus_power(x, e);
-      s["fit"] = {{"model", "floor_plus_power"},
-                  {"formula", "certified_error = F + C * triangles^-p"},
-                  {"F", m.parameters[0]},
-                  {"C", m.parameters[1]},
-                  {"p", -m.parameters[2]},
-                  {"log_residuals", m.residuals},
-                  {"cost", m.cost},
-                  {"loss", "Huber(0.1) on log(error)"}};
-      const double xs = invert_model(m, reference_error, 1e-12, 1.0);
-      const double needed = m.predict(xs) <= reference_error ? 1.0 / xs : std::numeric_limits<double>::infinity();
-      s["triangles_at_reference_error"] =
-          std::isfinite(needed) ? nlohmann::json(std::round(needed)) : nlohmann::json(nullptr);
-      if (!std::isfinite(needed)) s["note"] = "floor " + format_number(m.parameters[0]) + " above the reference error";
-      if (needed < best_needed) {
-        best_needed = needed;
-        best_scheme = scheme;
-      }
-    } else if (t.size() >= 2 && *std::max_element(t.begin(), t.end()) > *std::min_element(t.begin(), t.end())) {
-      const FittedModel m = fit_power_law(t, e);
-      s["fit"] = fitted_json(m);
-      // Triangles the fitted model needs for the reference error (error decreasing in triangles).
-      const double p = m.parameters[1];
-      const double needed =
-          p < 0.0 ? std::pow(reference_error / m.parameters[0], 1.0 / p) : std::numeric_limits<double>::infinity();
-      s["triangles_at_reference_error"] =
-          std::isfinite(needed) ? nlohmann::json(std::round(needed)) : nlohmann::json(nullptr);
-      if (needed < best_needed) {
-        best_needed = needed;
-        best_scheme = scheme;
-      }
+    const double needed = fit_scheme_points(scheme, t, e, reference_error, s);
+    if (needed < best_needed) {
+      best_needed = needed;
+      best_scheme = scheme;
     }
     schemes[scheme] = s;
   }
-  for (auto& [scheme, s] : schemes.items()) {
-    std::ostringstream v;
-    v << s["on_pareto_front"].get<int>() << " of " << s["points"].get<int>()
-      << " settings on the error/triangles front, " << s["on_time_pareto_front"].get<int>()
-      << " on the error/time front";
-    if (s.contains("triangles_at_reference_error") && !s["triangles_at_reference_error"].is_null()) {
-      const double needed = s["triangles_at_reference_error"].get<double>();
-      v << "; the fit needs about " << std::llround(needed) << " triangles for error "
-        << format_number(reference_error);
-      if (scheme == best_scheme) {
-        v << " - the fewest of all schemes";
-        s["rank"] = "best";
-      } else {
-        v << " (" << format_number(needed / best_needed, 2) << "x " << best_scheme << ")";
-        s["rank"] = needed <= 1.25 * best_needed ? "close" : "costly";
-      }
-    } else if (s.contains("note")) {
-      v << "; cannot reach error " << format_number(reference_error) << " at this base level ("
-        << s["note"].get<std::string>() << ")";
-      s["rank"] = "floor";
-    } else {
-      v << "; too few certified settings to fit";
-      s["rank"] = "unknown";
-    }
-    s["verdict"] = v.str();
-  }
+  for (auto& [scheme, s] : schemes.items()) add_verdict(scheme, s, reference_error, best_scheme, best_needed);
   entry["schemes"] = schemes;
   entry["reference_error"] = reference_error;
 }
