@@ -257,6 +257,7 @@ PYBIND11_MODULE(_sagitta, m) {
                std::to_string(t.triangles.size()) + " triangles>";
       });
 
+  m.def("scheme_names", &scheme_names, "The schemes tessellate() accepts, in the CLI's order (uniform, pn, esc)");
   m.def("read_model", &io::read_patch_model, py::arg("path"), "Read a .bpt or .rib patch file");
   m.def("parse_bpt", &io::parse_bpt, py::arg("text"), py::arg("name"), "A patch model from .bpt text; `name` names it in messages");
   m.def("default_model", &fixtures::default_model, "The built-in default model (pillow box + rational torus)");
