@@ -47,7 +47,6 @@ SchemeSpec scheme_spec(const SchemeOptions& o) {
   spec.tess_factor = o.tess_factor;
   spec.normals = parse_pn_normals(o.normals);
   spec.max_triangles = o.max_triangles;
-  spec.surface_data = o.surface_data;
   return spec;
 }
 

@@ -15,6 +15,8 @@
 
 namespace sagitta::cli {
 
+// The scheme options as CLI11 binds them (names as strings, checked with IsMember so the messages stay
+// CLI11's); scheme_spec() turns them into the scheme API's SchemeSpec.
 struct SchemeOptions {
   std::string scheme = "uniform";
   int level = -1;       // uniform: 2^L segments; esc: pattern level; pn: segments per edge
@@ -22,7 +24,6 @@ struct SchemeOptions {
   double threshold = 0.0;  // esc: distance threshold rho
   bool per_edge_levels = false;  // esc: EscParams::per_edge_levels (smallest sufficient level per refined edge)
   uint64_t max_triangles = 200'000'000;
-  bool surface_data = true;  // keep (patch, u, v) so the result can be validated
   // pn
   std::string pattern = "integer";   // integer | fractional_odd
   std::string pn_variant = "basic";  // basic | aen

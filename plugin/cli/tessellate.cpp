@@ -59,7 +59,7 @@ void run_tessellate(const TessellateOptions& o) {
   int degree = 1;
   for (const BezierPatch& p : model.patches) degree = std::max({degree, p.degree_u, p.degree_v});
   const size_t patches = model.patches.size() * static_cast<size_t>(o.copies);
-  const SchemeSpec spec = scheme_spec(o.scheme);
+  SchemeSpec spec = scheme_spec(o.scheme);
   check_triangle_estimate(estimated_triangles(model, spec) * o.copies, spec,
                           o.copies > 1 ? model_bytes(patches, degree, degree, true) + topology_bytes(patches, degree)
                                        : topology_bytes(patches, degree));
@@ -70,11 +70,10 @@ void run_tessellate(const TessellateOptions& o) {
   stats["input"] = o.input.empty() ? "default" : o.input;
   stats["copies"] = o.copies;
   stats["patches"] = model.patches.size();
-  SchemeSpec run_spec = spec;
-  run_spec.surface_data = false;
+  spec.surface_data = false;
   SchemeStats scheme_stats;
   const Stopwatch clock;
-  const Tessellation mesh = tessellate(model, topology, run_spec, &scheme_stats);
+  const Tessellation mesh = tessellate(model, topology, spec, &scheme_stats);
   stats["seconds"] = clock.seconds();
   stats.update(scheme_stats_json(scheme_stats));
   stats["vertices"] = mesh.positions.size();
