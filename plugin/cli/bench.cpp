@@ -4,10 +4,12 @@
 // certified validation time against tessellation time. Prints a table; --json writes the numbers.
 #include "commands.hpp"
 
+#include "sagitta/app/fit_search.hpp"
+
 #include "sagitta/esc.hpp"
 #include "sagitta/fit.hpp"
 #include "sagitta/io/model_io.hpp"
-#include "sagitta/pn.hpp"
+#include "sagitta/scheme.hpp"
 #include "sagitta/uniform.hpp"
 #include "sagitta/uniform_grid.hpp"
 
@@ -17,6 +19,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -118,186 +121,122 @@ void print_rate(const std::string& name, int threads, const nlohmann::json& j, d
   std::printf("\n");
 }
 
-struct Fitted {
-  std::string scheme;
-  FitResult fit;
-  UniformParams uniform;
-  EscParams esc;
-  bool is_esc = false;
+// Bench times the kernels at sizes it chose: no front end's size guard.
+SchemeSpec unguarded(Scheme scheme) {
+  SchemeSpec spec;
+  spec.scheme = scheme;
+  spec.guard = false;
+  return spec;
+}
+
+// Refuses a --json output that is one of the tea-set inputs (a missing file is reported where it is read).
+void check_bench_outputs(const BenchOptions& o) {
+  if (o.json.empty()) return;
+  std::vector<std::string> inputs;
+  for (const char* file : {"teapot.bpt", "teacup.bpt", "teaspoon.bpt"}) {
+    try {
+      inputs.push_back(data_path(o, file));
+    } catch (const InputError&) {  // a missing file is reported where it is read
+    }
+  }
+  check_outputs({{"--json", o.json}}, inputs);
+}
+
+// What every section needs: the thread counts, the repeats and the document being filled.
+struct BenchRun {
+  const BenchOptions& options;
+  int all = 1;      // threads of "all threads"
+  int repeats = 5;  // best of
+  nlohmann::json& doc;
 };
 
-// Our tessellation at a fitted setting (with surface data, so it can be certified).
-Tessellation tessellate_fitted(const Model& model, const Topology& topo, const Fitted& f) {
-  return f.is_esc ? tessellate_esc(model, topo, f.esc) : tessellate_uniform(model, topo, f.uniform);
-}
-
-// Fewest-triangle setting among uniform (global and per patch) and ESC that certifies <= target.
-bool fit_ours(const Model& model, const Topology& topo, double target, Fitted& best) {
-  bool found = false;
-  auto consider = [&](Fitted f) {
-    if (!f.fit.met) return;
-    if (!found || f.fit.triangles < best.fit.triangles) {
-      best = std::move(f);
-      found = true;
-    }
-  };
-  for (int kind = 0; kind < 3; ++kind) {
-    Fitted f;
-    FitOptions options;
-    options.per_patch = kind == 1;
-    const FitScheme scheme = kind == 2 ? FitScheme::kEsc : FitScheme::kUniform;
-    f.fit = fit_to_error(model, topo, scheme, target, options);
-    f.fit.mesh = Tessellation();
-    if (kind == 2) {
-      f.scheme = "esc";
-      f.is_esc = true;
-      f.esc.level = f.fit.level;
-      f.esc.threshold = f.fit.threshold;
-    } else if (kind == 1) {
-      f.scheme = "uniform_per_patch";
-      for (const PatchChoice& c : f.fit.patches) f.uniform.patch_levels.push_back(c.level);
-    } else {
-      f.scheme = "uniform";
-      f.uniform.segments = f.fit.level;
-    }
-    consider(std::move(f));
-  }
-  return found;
-}
-
-// OCCT's largest deflection (searched by factors of 2, then one geometric midpoint) whose mesh
-// certifies <= target. Returns false when none of the tried deflections certifies.
-bool fit_occt(const Model& model, double target, occt::PeerResult& best, double& deflection) {
-  occt::PeerOptions options;
-  options.certify = fit_certify_defaults();
-  auto passes = [&](double d, occt::PeerResult& r) {
-    options.deflection = d;
-    r = occt::peer_mesh_model(model, options);
-    return r.distance.hausdorff.certified && r.distance.hausdorff.upper <= target;
-  };
-  double pass = 0.0, fail = 0.0;
-  occt::PeerResult r;
-  double d = target;
-  if (passes(d, r)) {
-    pass = d;
-    best = r;
-    for (int i = 0; i < 4 && fail == 0.0; ++i) {
-      d *= 2.0;
-      if (passes(d, r)) {
-        pass = d;
-        best = r;
-      } else {
-        fail = d;
-      }
-    }
-  } else {
-    fail = d;
-    for (int i = 0; i < 6 && pass == 0.0; ++i) {
-      d *= 0.5;
-      if (passes(d, r)) {
-        pass = d;
-        best = r;
-      } else {
-        fail = d;
-      }
-    }
-  }
-  if (pass == 0.0) return false;
-  if (fail > 0.0) {
-    const double mid = std::sqrt(pass * fail);
-    if (passes(mid, r)) {
-      pass = mid;
-      best = r;
-    }
-  }
-  deflection = pass;
-  return true;
-}
-
-void run_bench(const BenchOptions& o) {
-  // Line-buffered, so each row appears when measured, also when stdout is a pipe or a file.
-  std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  if (!o.json.empty()) {
-    std::vector<std::string> inputs;
-    for (const char* file : {"teapot.bpt", "teacup.bpt", "teaspoon.bpt"}) {
-      try {
-        inputs.push_back(data_path(o, file));
-      } catch (const InputError&) {  // a missing file is reported where it is read
-      }
-    }
-    check_outputs({{"--json", o.json}}, inputs);
-  }
-  const Stopwatch total;
-  const int all = tbb::info::default_concurrency();
-  const int repeats = o.quick ? 2 : 5;
-  nlohmann::json doc;
-  doc["quick"] = o.quick;
-  doc["threads_all"] = all;
-  doc["repeats"] = repeats;
-
-  // 1. Store bandwidth.
-  const size_t buffer = o.quick ? (size_t{64} << 20) : (size_t{512} << 20);
-  std::printf("store bandwidth (%zu MiB buffers, best of %d)\n", buffer >> 20, repeats);
-  double memset_bw[2] = {0.0, 0.0};
+// 1. Store bandwidth, single thread and all threads; returns memset bytes per second of each.
+std::array<double, 2> bench_bandwidth(BenchRun& run) {
+  const size_t buffer = run.options.quick ? (size_t{64} << 20) : (size_t{512} << 20);
+  std::printf("store bandwidth (%zu MiB buffers, best of %d)\n", buffer >> 20, run.repeats);
+  std::array<double, 2> memset_bw = {0.0, 0.0};
   for (int k = 0; k < 2; ++k) {
-    const int threads = k == 0 ? 1 : all;
-    nlohmann::json j = bandwidth(buffer, repeats, threads);
+    const int threads = k == 0 ? 1 : run.all;
+    nlohmann::json j = bandwidth(buffer, run.repeats, threads);
     memset_bw[k] = j["memset_bytes_per_s"].get<double>();
     std::printf("  %2d thr  memset %6.2f GB/s  copy %6.2f GB/s\n", threads, memset_bw[k] * 1e-9,
                 j["copy_bytes_per_s"].get<double>() * 1e-9);
-    doc["bandwidth"].push_back(j);
+    run.doc["bandwidth"].push_back(j);
   }
+  return memset_bw;
+}
 
-  // 2. Throughput per scheme on 100 teacups (2600 bicubic patches).
-  const Model cup = io::read_bpt(data_path(o, "teacup.bpt"));
-  const Model cups = replicate(cup, o.quick ? 10 : 100);
-  const Topology cups_topo = build_topology(cups);
-  const int grid_level = o.quick ? 4 : 6;
-  const int esc_level = o.quick ? 3 : 7;
-  const int pn_factor = 8;
+// The settings section 2 times, on 100 teacups (10 with --quick).
+struct ThroughputSetup {
+  Model cups;
+  Topology topology;
+  int grid_level = 6, esc_level = 7, pn_factor = 8;
+  int n = 0;  // uniform segments
+  size_t vertices = 0;
+  double grid_triangles = 0.0;
+  SchemeSpec uniform, esc, pn;
+  Tessellation pn_base;
+};
+
+ThroughputSetup throughput_setup(const BenchRun& run, const Model& cup) {
+  const bool quick = run.options.quick;
+  ThroughputSetup t;
+  t.cups = replicate(cup, quick ? 10 : 100);
+  t.topology = build_topology(t.cups);
+  t.grid_level = quick ? 4 : 6;
+  t.esc_level = quick ? 3 : 7;
+  t.n = segments_for_level(t.grid_level);
+  t.vertices = uniform_grid_vertices(t.cups, t.n);
+  t.grid_triangles = 2.0 * t.n * t.n * static_cast<double>(t.cups.patches.size());
+  t.uniform = unguarded(Scheme::kUniform);
+  t.uniform.segments = t.n;
+  t.uniform.vertex_normals = false;
+  t.uniform.surface_data = false;
+  t.esc = unguarded(Scheme::kEsc);
+  t.esc.level = t.esc_level;
+  t.esc.vertex_normals = false;
+  t.esc.surface_data = false;
+  SchemeSpec pn_base_spec = unguarded(Scheme::kUniform);
+  pn_base_spec.segments = 4;
+  pn_base_spec.surface_data = false;
+  t.pn_base = tessellate(t.cups, t.topology, pn_base_spec);
+  t.pn = unguarded(Scheme::kPn);
+  t.pn.level = t.pn_factor;
+  return t;
+}
+
+// 2. Throughput per scheme on 100 teacups (2600 bicubic patches), single thread and all threads.
+void bench_throughput(BenchRun& run, const Model& cup, const std::array<double, 2>& memset_bw) {
+  const ThroughputSetup t = throughput_setup(run, cup);
   std::printf("throughput (%zu patches; uniform L = %d, ESC L = %d rho = 0, PN k = %d on uniform L = 2)\n",
-              cups.patches.size(), grid_level, esc_level, pn_factor);
-  const int n = segments_for_level(grid_level);
-  const size_t vertices = uniform_grid_vertices(cups, n);
-  const double grid_triangles = 2.0 * n * n * static_cast<double>(cups.patches.size());
-  std::vector<float> xyz32(3 * vertices, 0.0f);
-  std::vector<double> xyz64(3 * vertices, 0.0);
-  UniformParams uniform;
-  uniform.segments = n;
-  uniform.normals = false;
-  uniform.surface_data = false;
-  EscParams esc;
-  esc.level = esc_level;
-  esc.normals = false;
-  esc.surface_data = false;
-  UniformParams pn_base_params;
-  pn_base_params.segments = 4;
-  pn_base_params.surface_data = false;
-  const Tessellation pn_base = tessellate_uniform(cups, cups_topo, pn_base_params);
-  PnParams pn;
-  pn.factor = pn_factor;
-  nlohmann::json& tp = doc["throughput"];
-  tp["patches"] = cups.patches.size();
-  tp["uniform_level"] = grid_level;
-  tp["esc_level"] = esc_level;
-  tp["pn_factor"] = pn_factor;
+              t.cups.patches.size(), t.grid_level, t.esc_level, t.pn_factor);
+  std::vector<float> xyz32(3 * t.vertices, 0.0f);
+  std::vector<double> xyz64(3 * t.vertices, 0.0);
+  nlohmann::json& tp = run.doc["throughput"];
+  tp["patches"] = t.cups.patches.size();
+  tp["uniform_level"] = t.grid_level;
+  tp["esc_level"] = t.esc_level;
+  tp["pn_factor"] = t.pn_factor;
+  const int repeats = run.repeats;
   double per_triangle[2][2] = {{0, 0}, {0, 0}};  // [uniform, esc][threads]
   for (int k = 0; k < 2; ++k) {
-    const int threads = k == 0 ? 1 : all;
+    const int threads = k == 0 ? 1 : run.all;
     const std::string key = k == 0 ? "single_thread" : "all_threads";
-    const double s32 = timed_with_threads(threads, repeats, [&] { tessellate_uniform_grid(cups, n, xyz32.data()); });
-    const double s64 = timed_with_threads(threads, repeats, [&] { tessellate_uniform_grid(cups, n, xyz64.data()); });
-    nlohmann::json g32 = rate_json(s32, grid_triangles, 12.0 * vertices);
-    nlohmann::json g64 = rate_json(s64, grid_triangles, 24.0 * vertices);
+    const double s32 =
+        timed_with_threads(threads, repeats, [&] { tessellate_uniform_grid(t.cups, t.n, xyz32.data()); });
+    const double s64 =
+        timed_with_threads(threads, repeats, [&] { tessellate_uniform_grid(t.cups, t.n, xyz64.data()); });
+    nlohmann::json g32 = rate_json(s32, t.grid_triangles, 12.0 * t.vertices);
+    nlohmann::json g64 = rate_json(s64, t.grid_triangles, 24.0 * t.vertices);
     g32["fraction_of_memset"] = g32["output_bytes_per_s"].get<double>() / memset_bw[k];
     g64["fraction_of_memset"] = g64["output_bytes_per_s"].get<double>() / memset_bw[k];
-    Tessellation t;
-    const double su = timed_with_threads(threads, repeats, [&] { t = tessellate_uniform(cups, cups_topo, uniform); });
-    const nlohmann::json ju = rate_json(su, static_cast<double>(t.triangles.size()), mesh_bytes(t));
-    const double se = timed_with_threads(threads, repeats, [&] { t = tessellate_esc(cups, cups_topo, esc); });
-    const nlohmann::json je = rate_json(se, static_cast<double>(t.triangles.size()), mesh_bytes(t));
-    const double sp = timed_with_threads(threads, repeats, [&] { t = tessellate_pn(pn_base, pn); });
-    const nlohmann::json jp = rate_json(sp, static_cast<double>(t.triangles.size()), mesh_bytes(t));
+    Tessellation m;
+    const double su = timed_with_threads(threads, repeats, [&] { m = tessellate(t.cups, t.topology, t.uniform); });
+    const nlohmann::json ju = rate_json(su, static_cast<double>(m.triangles.size()), mesh_bytes(m));
+    const double se = timed_with_threads(threads, repeats, [&] { m = tessellate(t.cups, t.topology, t.esc); });
+    const nlohmann::json je = rate_json(se, static_cast<double>(m.triangles.size()), mesh_bytes(m));
+    const double sp = timed_with_threads(threads, repeats, [&] { m = tessellate_mesh(t.pn_base, t.pn); });
+    const nlohmann::json jp = rate_json(sp, static_cast<double>(m.triangles.size()), mesh_bytes(m));
     per_triangle[0][k] = su / ju["triangles"].get<double>();
     per_triangle[1][k] = se / je["triangles"].get<double>();
     tp[key] = {{"threads", threads}, {"uniform_grid_float32", g32}, {"uniform_grid_double", g64},
@@ -310,48 +249,97 @@ void run_bench(const BenchOptions& o) {
     print_rate("pn (Tessellation)", threads, jp);
     std::printf("  esc / uniform time per triangle: %.2f\n", per_triangle[1][k] / per_triangle[0][k]);
   }
-  xyz64 = {};
+}
 
-  // 3. The Teacups scene (100 cups) at L = 3.
-  {
-    const Model scene = replicate(cup, 100);
-    const Topology topo = build_topology(scene);
-    UniformParams u3;
-    u3.segments = segments_for_level(3);
-    u3.surface_data = false;
-    EscParams e3;
-    e3.level = 3;
-    e3.surface_data = false;
-    std::vector<float> buf(3 * uniform_grid_vertices(scene, 8));
-    nlohmann::json& sc = doc["teacups_scene"];
-    sc["patches"] = scene.patches.size();
-    std::printf("Teacups scene (%zu patches) at L = 3, normals on, tessellations per second\n", scene.patches.size());
-    for (int k = 0; k < 2; ++k) {
-      const int threads = k == 0 ? 1 : all;
-      Tessellation t;
-      const double su = timed_with_threads(threads, repeats * 4, [&] { t = tessellate_uniform(scene, topo, u3); });
-      const double ut = static_cast<double>(t.triangles.size());
-      const double se = timed_with_threads(threads, repeats * 4, [&] { t = tessellate_esc(scene, topo, e3); });
-      const double et = static_cast<double>(t.triangles.size());
-      const double sg = timed_with_threads(threads, repeats * 4, [&] { tessellate_uniform_grid(scene, 8, buf.data()); });
-      const UniformGridPlan plan(scene, 8);
-      const double sgp = timed_with_threads(threads, repeats * 4, [&] { plan.run(buf.data()); });
-      sc[k == 0 ? "single_thread" : "all_threads"] = {
-          {"threads", threads},
-          {"uniform", {{"seconds", su}, {"triangles", ut}, {"per_s", 1.0 / su}}},
-          {"esc", {{"seconds", se}, {"triangles", et}, {"per_s", 1.0 / se}}},
-          {"uniform_grid_float32", {{"seconds", sg}, {"triangles", 2.0 * 64 * scene.patches.size()}, {"per_s", 1.0 / sg}}},
-          {"uniform_grid_float32_prepared",
-           {{"seconds", sgp}, {"triangles", 2.0 * 64 * scene.patches.size()}, {"per_s", 1.0 / sgp}}}};
-      std::printf("  %2d thr  uniform %7.1f/s  esc %7.1f/s  grid float32 %7.1f/s  prepared grid float32 %7.1f/s\n",
-                  threads, 1.0 / su, 1.0 / se, 1.0 / sg, 1.0 / sgp);
-    }
+// 3. The Teacups scene (100 cups) at L = 3.
+void bench_teacups_scene(BenchRun& run, const Model& cup) {
+  const Model scene = replicate(cup, 100);
+  const Topology topo = build_topology(scene);
+  SchemeSpec u3 = unguarded(Scheme::kUniform);
+  u3.level = 3;
+  u3.surface_data = false;
+  SchemeSpec e3 = unguarded(Scheme::kEsc);
+  e3.level = 3;
+  e3.surface_data = false;
+  std::vector<float> buf(3 * uniform_grid_vertices(scene, 8));
+  nlohmann::json& sc = run.doc["teacups_scene"];
+  sc["patches"] = scene.patches.size();
+  std::printf("Teacups scene (%zu patches) at L = 3, normals on, tessellations per second\n", scene.patches.size());
+  const int repeats = run.repeats;
+  for (int k = 0; k < 2; ++k) {
+    const int threads = k == 0 ? 1 : run.all;
+    Tessellation t;
+    const double su = timed_with_threads(threads, repeats * 4, [&] { t = tessellate(scene, topo, u3); });
+    const double ut = static_cast<double>(t.triangles.size());
+    const double se = timed_with_threads(threads, repeats * 4, [&] { t = tessellate(scene, topo, e3); });
+    const double et = static_cast<double>(t.triangles.size());
+    const double sg = timed_with_threads(threads, repeats * 4, [&] { tessellate_uniform_grid(scene, 8, buf.data()); });
+    const UniformGridPlan plan(scene, 8);
+    const double sgp = timed_with_threads(threads, repeats * 4, [&] { plan.run(buf.data()); });
+    sc[k == 0 ? "single_thread" : "all_threads"] = {
+        {"threads", threads},
+        {"uniform", {{"seconds", su}, {"triangles", ut}, {"per_s", 1.0 / su}}},
+        {"esc", {{"seconds", se}, {"triangles", et}, {"per_s", 1.0 / se}}},
+        {"uniform_grid_float32",
+         {{"seconds", sg}, {"triangles", 2.0 * 64 * scene.patches.size()}, {"per_s", 1.0 / sg}}},
+        {"uniform_grid_float32_prepared",
+         {{"seconds", sgp}, {"triangles", 2.0 * 64 * scene.patches.size()}, {"per_s", 1.0 / sgp}}}};
+    std::printf("  %2d thr  uniform %7.1f/s  esc %7.1f/s  grid float32 %7.1f/s  prepared grid float32 %7.1f/s\n",
+                threads, 1.0 / su, 1.0 / se, 1.0 / sg, 1.0 / sgp);
   }
+}
 
-  // 4. The tea set against OCCT at equal certified error, and 5. validation / tessellation time.
+// One row of section 4: our fewest-triangle fit for `target`, timed and certified, against OCCT's
+// largest deflection that certifies the same target.
+nlohmann::json tea_set_row(const BenchRun& run, const std::string& file, const Model& model, const Topology& topo,
+                           double target) {
+  nlohmann::json row = {{"model", file}, {"target", target}};
+  app::FittedSetting ours;
+  if (!app::fit_fewest_triangles(model, topo, target, ours)) {
+    row["ours"] = nullptr;
+    return row;
+  }
+  Tessellation mesh;
+  const double t1 = timed_with_threads(1, run.repeats, [&] { mesh = tessellate(model, topo, ours.spec); });
+  const double tall = timed_with_threads(run.all, run.repeats, [&] { mesh = tessellate(model, topo, ours.spec); });
+  const DistanceReport cert = certify_distance(model, mesh);
+  row["ours"] = {{"scheme", ours.scheme},
+                 {"level", ours.fit.level},
+                 {"threshold", ours.fit.threshold},
+                 {"triangles", mesh.triangles.size()},
+                 {"certified_error", cert.hausdorff.upper},
+                 {"seconds_single_thread", t1},
+                 {"seconds_all_threads", tall},
+                 {"validation_seconds", cert.seconds},
+                 {"validation_over_tessellation", cert.seconds / tall}};
+  occt::PeerResult peer;
+  double deflection = 0.0;
+  const bool occt_ok = !run.options.skip_occt && app::fit_occt_deflection(model, target, peer, deflection);
+  if (occt_ok) {
+    row["occt"] = {{"deflection", deflection},
+                   {"triangles", peer.triangles},
+                   {"certified_error", peer.distance.hausdorff.upper},
+                   {"seconds", peer.mesh_seconds}};
+    row["speedup_single_thread"] = peer.mesh_seconds / t1;
+    row["speedup_all_threads"] = peer.mesh_seconds / tall;
+    row["triangle_ratio"] = static_cast<double>(mesh.triangles.size()) / static_cast<double>(peer.triangles);
+  } else {
+    row["occt"] = nullptr;
+  }
+  std::printf("  %-13s %7.0e  %-18s %9zu %10.3f %10.3f | %9zu %9.2e %10.3f | %7.0f %7.2f | %6.1f\n", file.c_str(),
+              target, ours.scheme.c_str(), mesh.triangles.size(), t1 * 1e3, tall * 1e3,
+              occt_ok ? peer.triangles : size_t{0}, deflection, occt_ok ? peer.mesh_seconds * 1e3 : 0.0,
+              occt_ok ? peer.mesh_seconds / t1 : 0.0,
+              occt_ok ? static_cast<double>(mesh.triangles.size()) / static_cast<double>(peer.triangles) : 0.0,
+              cert.seconds / tall);
+  return row;
+}
+
+// 4. The tea set against OCCT at equal certified error, and 5. validation / tessellation time.
+void bench_tea_set(BenchRun& run) {
   std::vector<std::string> files = {"teapot.bpt", "teacup.bpt", "teaspoon.bpt"};
   std::vector<double> targets = {1e-2, 1e-3, 1e-4};
-  if (o.quick) {
+  if (run.options.quick) {
     files = {"teacup.bpt"};
     targets = {1e-2};
   }
@@ -360,52 +348,27 @@ void run_bench(const BenchOptions& o) {
               "triangles", "ms (1 thr)", "ms (all)", "occt tri", "occt defl", "occt ms", "speedup", "tri",
               "val/tes");
   for (const std::string& file : files) {
-    const Model model = io::read_bpt(data_path(o, file));
+    const Model model = io::read_bpt(data_path(run.options, file));
     const Topology topo = build_topology(model);
-    for (double target : targets) {
-      nlohmann::json row = {{"model", file}, {"target", target}};
-      Fitted ours;
-      if (!fit_ours(model, topo, target, ours)) {
-        row["ours"] = nullptr;
-        doc["tea_set"].push_back(row);
-        continue;
-      }
-      Tessellation mesh;
-      const double t1 = timed_with_threads(1, repeats, [&] { mesh = tessellate_fitted(model, topo, ours); });
-      const double tall = timed_with_threads(all, repeats, [&] { mesh = tessellate_fitted(model, topo, ours); });
-      const DistanceReport cert = certify_distance(model, mesh);
-      row["ours"] = {{"scheme", ours.scheme},
-                     {"level", ours.fit.level},
-                     {"threshold", ours.fit.threshold},
-                     {"triangles", mesh.triangles.size()},
-                     {"certified_error", cert.hausdorff.upper},
-                     {"seconds_single_thread", t1},
-                     {"seconds_all_threads", tall},
-                     {"validation_seconds", cert.seconds},
-                     {"validation_over_tessellation", cert.seconds / tall}};
-      occt::PeerResult peer;
-      double deflection = 0.0;
-      const bool occt_ok = !o.skip_occt && fit_occt(model, target, peer, deflection);
-      if (occt_ok) {
-        row["occt"] = {{"deflection", deflection},
-                       {"triangles", peer.triangles},
-                       {"certified_error", peer.distance.hausdorff.upper},
-                       {"seconds", peer.mesh_seconds}};
-        row["speedup_single_thread"] = peer.mesh_seconds / t1;
-        row["speedup_all_threads"] = peer.mesh_seconds / tall;
-        row["triangle_ratio"] = static_cast<double>(mesh.triangles.size()) / static_cast<double>(peer.triangles);
-      } else {
-        row["occt"] = nullptr;
-      }
-      std::printf("  %-13s %7.0e  %-18s %9zu %10.3f %10.3f | %9zu %9.2e %10.3f | %7.0f %7.2f | %6.1f\n", file.c_str(),
-                  target, ours.scheme.c_str(), mesh.triangles.size(), t1 * 1e3, tall * 1e3,
-                  occt_ok ? peer.triangles : size_t{0}, deflection, occt_ok ? peer.mesh_seconds * 1e3 : 0.0,
-                  occt_ok ? peer.mesh_seconds / t1 : 0.0,
-                  occt_ok ? static_cast<double>(mesh.triangles.size()) / static_cast<double>(peer.triangles) : 0.0,
-                  cert.seconds / tall);
-      doc["tea_set"].push_back(row);
-    }
+    for (double target : targets) run.doc["tea_set"].push_back(tea_set_row(run, file, model, topo, target));
   }
+}
+
+void run_bench(const BenchOptions& o) {
+  // Line-buffered, so each row appears when measured, also when stdout is a pipe or a file.
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  check_bench_outputs(o);
+  const Stopwatch total;
+  nlohmann::json doc;
+  BenchRun run{o, tbb::info::default_concurrency(), o.quick ? 2 : 5, doc};
+  doc["quick"] = o.quick;
+  doc["threads_all"] = run.all;
+  doc["repeats"] = run.repeats;
+  const std::array<double, 2> memset_bw = bench_bandwidth(run);
+  const Model cup = io::read_bpt(data_path(o, "teacup.bpt"));
+  bench_throughput(run, cup, memset_bw);
+  bench_teacups_scene(run, cup);
+  bench_tea_set(run);
   doc["seconds"] = total.seconds();
   std::printf("total %.1f s\n", total.seconds());
   if (!o.json.empty()) write_json(o.json, doc);

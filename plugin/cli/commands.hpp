@@ -1,20 +1,12 @@
 // The `sagitta` command line: one register function per subcommand, and the helpers they share.
 #pragma once
 
-#include "sagitta/certify.hpp"
-#include "sagitta/mesh_check.hpp"
-#include "sagitta/model.hpp"
-#include "sagitta/occt/cad.hpp"
-#include "sagitta/tessellation.hpp"
+#include "sagitta/app/common.hpp"
+#include "sagitta/app/json.hpp"
 
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
 
-#include <chrono>
 #include <functional>
-#include <string>
-#include <utility>
-#include <vector>
 
 namespace sagitta::cli {
 
@@ -33,43 +25,17 @@ Command register_report(CLI::App& app);
 Command register_peer(CLI::App& app);
 Command register_bench(CLI::App& app);
 
-// Loads a patch model: "" or "default" is the built-in default model; otherwise by extension.
-// CAD files (.step, .iges, .brep) give the Bézier patches of their untrimmed faces, and fill
-// `cad_stats` (when given) with faces, faces_trimmed, faces_skipped (with reasons), bezier_patches.
-Model load_model(const std::string& input, nlohmann::json* cad_stats = nullptr);
-
-// The CAD stats fields of a CAD model (see load_model).
-nlohmann::json cad_json(const occt::CadModel& cad);
-
-// An output file with the option that names it ("--out", "run.json" ...), for messages.
-using NamedPath = std::pair<std::string, std::string>;
-
-// Refuses (InputError, before anything is read or written) an output that is the same file as any
-// input, and two outputs that are the same file; both after resolving symlinks, "./" and "..".
-// Empty paths and the input "default" (the built-in model) are ignored. Every command calls it with all its outputs and every file it reads.
-void check_outputs(const std::vector<NamedPath>& outputs, const std::vector<std::string>& inputs);
-
-// Writes a JSON document atomically, pretty-printed.
-void write_json(const std::string& path, const nlohmann::json& doc);
-
-// Topology summary for stats files.
-nlohmann::json topology_json(const Model& model, const Topology& topology);
-
-// `sagitta validate` report fields (also used by the Python module, so both report alike):
-// a point as [x, y, z]; a distance interval; a mesh topology verdict with its findings.
-nlohmann::json vec_json(const Vec3& v);
-nlohmann::json interval_json(const DistanceInterval& interval);
-nlohmann::json topology_report_json(const TopologyReport& report);
-
-class Stopwatch {
- public:
-  Stopwatch() : start_(std::chrono::steady_clock::now()) {}
-  double seconds() const {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  }
-
- private:
-  std::chrono::steady_clock::time_point start_;
-};
+// The application layer's shared pieces, as the subcommands use them.
+using app::cad_json;
+using app::check_outputs;
+using app::fit_result_json;
+using app::interval_json;
+using app::load_model;
+using app::NamedPath;
+using app::Stopwatch;
+using app::topology_json;
+using app::topology_report_json;
+using app::vec_json;
+using app::write_json;
 
 }  // namespace sagitta::cli

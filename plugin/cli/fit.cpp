@@ -1,6 +1,5 @@
 // `sagitta fit`: choose a scheme's parameter for a requested certified accuracy (sagitta/fit.hpp).
 #include "commands.hpp"
-#include "fit_json.hpp"
 #include "progress.hpp"
 
 #include "sagitta/io/mesh_io.hpp"
@@ -10,68 +9,6 @@
 #include <memory>
 
 namespace sagitta::cli {
-
-nlohmann::json fitted_model_json(const FittedModel& m) {
-  nlohmann::json j;
-  j["model"] = m.name;
-  j["formula"] = m.formula;
-  j["variable"] = m.variable;
-  if (m.level >= 0) j["level"] = m.level;
-  nlohmann::json params;
-  for (size_t i = 0; i < m.parameters.size(); ++i) params[m.parameter_names[i]] = m.parameters[i];
-  j["parameters"] = params;
-  j["log_residuals"] = m.residuals;
-  j["cost"] = m.cost;
-  j["loss"] = "Huber(0.1) on log(error)";
-  return j;
-}
-
-nlohmann::json fit_result_json(const FitResult& r) {
-  nlohmann::json j;
-  j["scheme"] = fit_scheme_name(r.scheme);
-  j["target_error"] = r.target_error;
-  j["met"] = r.met;
-  if (r.scheme == FitScheme::kUniform) {
-    j["segments"] = r.level;
-  } else {
-    j["level"] = r.level;
-  }
-  if (r.scheme == FitScheme::kEsc) j["threshold"] = r.threshold;
-  if (r.scheme == FitScheme::kPn) j["base_level"] = r.base_level;
-  j["certified_error"] = std::isfinite(r.certified_error) ? nlohmann::json(r.certified_error) : nlohmann::json(nullptr);
-  j["certified_lower_bound"] = r.lower_bound;
-  j["triangles"] = r.triangles;
-  j["iterations"] = r.iterations;
-  j["refinement_steps"] = std::max(r.iterations - 1, 0);
-  j["certifications"] = r.certifications;
-  j["seconds"] = r.seconds;
-  nlohmann::json models = nlohmann::json::array();
-  for (const FittedModel& m : r.models) models.push_back(fitted_model_json(m));
-  j["fit"] = models;
-  nlohmann::json samples = nlohmann::json::array();
-  for (const FitSample& s : r.samples) {
-    nlohmann::json k;
-    k[r.scheme == FitScheme::kUniform ? "segments" : "level"] = s.level;
-    if (r.scheme == FitScheme::kEsc) k["threshold"] = s.threshold;
-    if (r.scheme == FitScheme::kPn) k["base_level"] = s.base_level;
-    k["triangles"] = s.triangles;
-    k["certified_error"] = std::isfinite(s.certified_error) ? nlohmann::json(s.certified_error) : nlohmann::json(nullptr);
-    k["lower_bound"] = s.lower_bound;
-    k["seconds"] = s.seconds;
-    samples.push_back(k);
-  }
-  j["samples"] = samples;
-  if (!r.patches.empty()) {
-    nlohmann::json patches = nlohmann::json::array();
-    for (const PatchChoice& p : r.patches) {
-      nlohmann::json k{{"patch", p.patch}, {"level", p.level}, {"certified_error", p.certified_error}};
-      if (r.scheme == FitScheme::kEsc) k["threshold"] = p.threshold;
-      patches.push_back(k);
-    }
-    j["patches"] = patches;
-  }
-  return j;
-}
 
 namespace {
 
@@ -99,13 +36,13 @@ void run_fit(const FitCliOptions& o) {
   options.esc_per_edge_levels = o.per_edge_levels;
   ProgressLine progress("sagitta fit");
   options.progress = [&](const FitProgress& p) { progress.update(p.step, p.steps, p.stage + " (certifying)"); };
-  const FitResult result = fit_to_error(model, topology, parse_fit_scheme(o.scheme), o.target_error, options);
+  const FitResult result = fit_to_error(model, topology, parse_scheme(o.scheme), o.target_error, options);
   progress.clear();
   nlohmann::json doc = fit_result_json(result);
   doc["input"] = o.input.empty() ? "default" : o.input;
   doc["model"] = model.name;
   doc["per_patch"] = o.per_patch;
-  if (result.scheme == FitScheme::kEsc) doc["per_edge_levels"] = o.per_edge_levels;
+  if (result.scheme == Scheme::kEsc) doc["per_edge_levels"] = o.per_edge_levels;
   if (!o.out.empty()) {
     io::write_mesh(result.mesh, o.out);
     doc["output"] = o.out;
@@ -113,9 +50,9 @@ void run_fit(const FitCliOptions& o) {
   if (!o.json.empty()) write_json(o.json, doc);
   std::cout << "sagitta fit: " << model.name << ", " << o.scheme << (o.per_patch ? " per patch" : "") << ", target "
             << o.target_error << ": ";
-  if (result.scheme == FitScheme::kUniform) std::cout << "segments " << result.level;
-  if (result.scheme == FitScheme::kEsc) std::cout << "level " << result.level << ", threshold " << result.threshold;
-  if (result.scheme == FitScheme::kPn) std::cout << "base level " << result.base_level << ", level " << result.level;
+  if (result.scheme == Scheme::kUniform) std::cout << "segments " << result.level;
+  if (result.scheme == Scheme::kEsc) std::cout << "level " << result.level << ", threshold " << result.threshold;
+  if (result.scheme == Scheme::kPn) std::cout << "base level " << result.base_level << ", level " << result.level;
   std::cout << ", " << result.triangles << " triangles, certified error <= " << result.certified_error << " ("
             << (result.met ? "meets" : "MISSES") << " the target), " << result.iterations << " verification steps, "
             << result.certifications << " certifications, " << result.seconds << " s\n";

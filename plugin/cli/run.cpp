@@ -2,7 +2,6 @@
 // certify each mesh, fit ESC to a target error, and write the trade report into an output folder,
 // printing where each file is.
 #include "commands.hpp"
-#include "fit_json.hpp"
 #include "progress.hpp"
 #include "report.hpp"
 #include "schemes.hpp"
@@ -30,12 +29,14 @@ struct RunOptions {
 };
 
 // One scheme's mesh: tessellated, certified, topology-checked and written as OUT_DIR/<name>.ply.
-nlohmann::json run_one_scheme(const Model& model, const Topology& topology, const SchemeOptions& scheme,
+nlohmann::json run_one_scheme(const Model& model, const Topology& topology, const SchemeSpec& scheme,
                               const std::string& out_dir, const std::string& name) {
-  nlohmann::json stats;
+  SchemeStats scheme_stats;
   const Stopwatch clock;
-  const Tessellation mesh = run_scheme(model, topology, scheme, stats);
-  stats["seconds"] = clock.seconds();
+  const Tessellation mesh = tessellate(model, topology, scheme, &scheme_stats);
+  const double seconds = clock.seconds();
+  nlohmann::json stats = scheme_stats_json(scheme_stats);
+  stats["seconds"] = seconds;
   stats["vertices"] = mesh.positions.size();
   stats["triangles"] = mesh.triangles.size();
   stats["degenerate_triangles"] = mesh.degenerate_triangles;
@@ -79,16 +80,16 @@ void run_main_job(const RunOptions& o) {
             << "[1/3] every scheme, certified:\n"
             << std::flush;
 
-  SchemeOptions uniform;
+  SchemeSpec uniform;
   uniform.level = o.level;
   summary["runs"].push_back(run_one_scheme(model, topology, uniform, o.out_dir, "uniform"));
-  SchemeOptions esc;
-  esc.scheme = "esc";
+  SchemeSpec esc;
+  esc.scheme = Scheme::kEsc;
   esc.level = 3;
   esc.threshold = 1e-3 * diagonal;
   summary["runs"].push_back(run_one_scheme(model, topology, esc, o.out_dir, "esc"));
-  SchemeOptions pn;
-  pn.scheme = "pn";
+  SchemeSpec pn;
+  pn.scheme = Scheme::kPn;
   pn.base_level = 2;
   pn.level = 3;
   summary["runs"].push_back(run_one_scheme(model, topology, pn, o.out_dir, "pn"));
@@ -98,7 +99,7 @@ void run_main_job(const RunOptions& o) {
   {
     ProgressLine progress("sagitta run: fit");
     fit_options.progress = [&](const FitProgress& p) { progress.update(p.step, p.steps, p.stage + " (certifying)"); };
-    const FitResult fit = fit_to_error(model, topology, FitScheme::kEsc, target, fit_options);
+    const FitResult fit = fit_to_error(model, topology, Scheme::kEsc, target, fit_options);
     progress.clear();
     nlohmann::json fit_doc = fit_result_json(fit);
     const std::string fit_mesh = (dir / "fit.ply").string();

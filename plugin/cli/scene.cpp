@@ -1,6 +1,6 @@
 // `sagitta scene SCENE.json`: view-dependent tessellation of a scene of placed models.
 #include "commands.hpp"
-#include "scene_plan.hpp"
+#include "sagitta/app/scene_plan.hpp"
 
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/io/model_io.hpp"
@@ -14,6 +14,8 @@
 #include <memory>
 
 namespace sagitta::cli {
+
+namespace scene = app::scene;
 
 namespace {
 

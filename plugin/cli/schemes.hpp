@@ -1,7 +1,9 @@
 // Scheme selection shared by every subcommand that tessellates (tessellate, validate, fit, bench).
 #pragma once
 
+#include "sagitta/app/json.hpp"
 #include "sagitta/model.hpp"
+#include "sagitta/scheme.hpp"
 #include "sagitta/tessellation.hpp"
 
 #include <CLI/CLI.hpp>
@@ -13,6 +15,8 @@
 
 namespace sagitta::cli {
 
+// The scheme options as CLI11 binds them (names as strings, checked with IsMember so the messages stay
+// CLI11's); scheme_spec() turns them into the scheme API's SchemeSpec.
 struct SchemeOptions {
   std::string scheme = "uniform";
   int level = -1;       // uniform: 2^L segments; esc: pattern level; pn: segments per edge
@@ -20,7 +24,6 @@ struct SchemeOptions {
   double threshold = 0.0;  // esc: distance threshold rho
   bool per_edge_levels = false;  // esc: EscParams::per_edge_levels (smallest sufficient level per refined edge)
   uint64_t max_triangles = 200'000'000;
-  bool surface_data = true;  // keep (patch, u, v) so the result can be validated
   // pn
   std::string pattern = "integer";   // integer | fractional_odd
   std::string pn_variant = "basic";  // basic | aen
@@ -29,26 +32,12 @@ struct SchemeOptions {
   std::string normals = "file";      // mesh input: file | smooth | face
 };
 
-// The schemes --scheme accepts.
-std::vector<std::string> scheme_names();
-
 // Adds --scheme, --level, --segments, --threshold and --max-triangles to a subcommand.
 void add_scheme_options(CLI::App* command, SchemeOptions& options);
 
-// The resource guard of every command that tessellates: refuses (one line saying what to do) an
-// estimated output above options.max_triangles, or whose memory (the mesh plus `other_bytes`)
-// exceeds --max-memory (sagitta/budget.hpp; the kernels check again where they allocate).
-void check_triangle_estimate(double estimate, const SchemeOptions& options, double other_bytes = 0.0);
+// The options as the scheme API's spec (CLI11 has checked the names).
+SchemeSpec scheme_spec(const SchemeOptions& options);
 
-// Triangles the chosen scheme makes on the model at most (esc: its full pattern; pn on a patch
-// model: the uniform base, whose refinement run_scheme checks before running it).
-double scheme_triangle_estimate(const Model& model, const SchemeOptions& options);
-
-// Runs the chosen scheme; fills `stats` with the scheme's parameters and counts (not timing).
-// Refuses, with a message, a tessellation whose estimated size exceeds max_triangles.
-Tessellation run_scheme(const Model& model, const Topology& topology, const SchemeOptions& options, nlohmann::json& stats);
-
-// The pn scheme on a triangle mesh (normals chosen by options.normals); fills `stats` likewise.
-Tessellation run_pn_on_mesh(const Tessellation& mesh, const SchemeOptions& options, nlohmann::json& stats);
+using app::scheme_stats_json;
 
 }  // namespace sagitta::cli

@@ -26,9 +26,12 @@ void run_tessellate_mesh(const TessellateOptions& o) {
   nlohmann::json stats;
   stats["input"] = o.input;
   stats["scheme"] = o.scheme.scheme;
+  const SchemeSpec spec = scheme_spec(o.scheme);
+  SchemeStats scheme_stats;
   const Stopwatch clock;
-  const Tessellation mesh = run_pn_on_mesh(input, o.scheme, stats);
+  const Tessellation mesh = tessellate_mesh(input, spec, &scheme_stats);
   stats["seconds"] = clock.seconds();
+  stats.update(scheme_stats_json(scheme_stats));
   stats["vertices"] = mesh.positions.size();
   stats["triangles"] = mesh.triangles.size();
   stats["degenerate_triangles"] = mesh.degenerate_triangles;
@@ -56,7 +59,8 @@ void run_tessellate(const TessellateOptions& o) {
   int degree = 1;
   for (const BezierPatch& p : model.patches) degree = std::max({degree, p.degree_u, p.degree_v});
   const size_t patches = model.patches.size() * static_cast<size_t>(o.copies);
-  check_triangle_estimate(scheme_triangle_estimate(model, o.scheme) * o.copies, o.scheme,
+  SchemeSpec spec = scheme_spec(o.scheme);
+  check_triangle_estimate(estimated_triangles(model, spec) * o.copies, spec,
                           o.copies > 1 ? model_bytes(patches, degree, degree, true) + topology_bytes(patches, degree)
                                        : topology_bytes(patches, degree));
   model = replicate(model, o.copies);
@@ -66,11 +70,12 @@ void run_tessellate(const TessellateOptions& o) {
   stats["input"] = o.input.empty() ? "default" : o.input;
   stats["copies"] = o.copies;
   stats["patches"] = model.patches.size();
-  SchemeOptions scheme = o.scheme;
-  scheme.surface_data = false;
+  spec.surface_data = false;
+  SchemeStats scheme_stats;
   const Stopwatch clock;
-  const Tessellation mesh = run_scheme(model, topology, scheme, stats);
+  const Tessellation mesh = tessellate(model, topology, spec, &scheme_stats);
   stats["seconds"] = clock.seconds();
+  stats.update(scheme_stats_json(scheme_stats));
   stats["vertices"] = mesh.positions.size();
   stats["triangles"] = mesh.triangles.size();
   stats["degenerate_triangles"] = mesh.degenerate_triangles;

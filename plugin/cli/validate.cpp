@@ -4,6 +4,7 @@
 #include "progress.hpp"
 #include "schemes.hpp"
 
+#include "sagitta/app/validate.hpp"
 #include "sagitta/certify.hpp"
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/mesh_check.hpp"
@@ -16,6 +17,11 @@
 #include <memory>
 
 namespace sagitta::cli {
+
+using app::validate_mesh;
+using app::Validation;
+using app::validation_json;
+using app::ValidationOptions;
 
 namespace {
 
@@ -36,58 +42,59 @@ struct ValidateOptions {
 
 }  // namespace
 
-nlohmann::json vec_json(const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
-
-// Infinity is not JSON: an uncertified upper bound is written as null.
-nlohmann::json number_or_null(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
-
-nlohmann::json interval_json(const DistanceInterval& d) {
-  nlohmann::json j;
-  j["lower"] = d.lower;
-  j["upper"] = number_or_null(d.upper);
-  j["width"] = number_or_null(d.width());
-  j["ratio"] = number_or_null(d.ratio());
-  j["upper_certified"] = d.certified;
-  j["lower_certified"] = true;
-  j["witness"] = vec_json(d.witness);
-  j["witness_patch"] = d.witness_patch;
-  return j;
-}
-
-nlohmann::json topology_report_json(const TopologyReport& t) {
-  nlohmann::json j;
-  j["edges"] = t.edges;
-  j["open_edges"] = t.open_edges;
-  j["model_boundary_edges"] = t.model_boundary_edges;
-  j["crack_edges"] = t.crack_edges;
-  j["t_junctions"] = t.t_junctions;
-  j["non_manifold_edges"] = t.non_manifold_edges;
-  j["inconsistent_orientation_edges"] = t.inconsistent_orientation_edges;
-  j["degenerate_triangles"] = t.degenerate_triangles;
-  j["duplicated_faces"] = t.duplicated_faces;
-  j["components"] = t.components;
-  j["closed_components"] = t.closed_components;
-  j["inside_out_components"] = t.inside_out_components;
-  nlohmann::json comps = nlohmann::json::array();
-  for (const MeshComponent& c : t.component_list) {
-    comps.push_back({{"triangles", c.triangles}, {"first_triangle", c.first_triangle}, {"patch", c.patch},
-                     {"box", {vec_json(c.box_min), vec_json(c.box_max)}}, {"closed", c.closed},
-                     {"signed_volume", c.closed ? nlohmann::json(c.signed_volume) : nlohmann::json(nullptr)},
-                     {"inside_out", c.inside_out}});
-  }
-  j["component_list"] = comps;
-  j["watertight"] = t.watertight();
-  j["open_edges_classified_by"] = t.classified_with_uv ? "patch (u, v)" : "distance to the model's free boundary curves";
-  nlohmann::json list = nlohmann::json::array();
-  for (const TopologyFinding& f : t.findings) {
-    list.push_back({{"kind", f.kind}, {"position", vec_json(f.position)}, {"patch", f.patch}, {"triangle", f.triangle},
-                    {"vertices", {f.vertices[0], f.vertices[1]}}});
-  }
-  j["findings"] = list;
-  return j;
-}
-
 namespace {
+
+// The requirements (--max-error, --require-watertight) that failed, each as one line; records
+// max_error and requirements_failed in `doc`.
+nlohmann::json failed_requirements(const ValidateOptions& o, const Validation& validation, nlohmann::json& doc) {
+  const DistanceReport& distance = validation.distance;
+  nlohmann::json failed = nlohmann::json::array();
+  if (o.max_error >= 0.0) {
+    doc["max_error"] = o.max_error;
+    if (!(distance.hausdorff.upper <= o.max_error)) {
+      failed.push_back(distance.hausdorff.lower > o.max_error ? "max-error: the distance exceeds it (lower bound above)"
+                                                              : "max-error: not certified (upper bound above)");
+    }
+  }
+  if (o.require_watertight && !validation.topology.watertight())
+    failed.push_back("watertight: cracks, T-junctions or non-manifold edges found");
+  doc["requirements_failed"] = failed;
+  return failed;
+}
+
+// --error-ply: the mesh as binary PLY with each face's certified upper bound (rounded up to float).
+void write_error_ply(const ValidateOptions& o, const Tessellation& mesh, const DistanceReport& distance,
+                     nlohmann::json& doc) {
+  if (distance.triangle_upper.size() != mesh.triangles.size()) {
+    throw InputError("--error-ply needs a mesh with (u, v): per-triangle bounds exist only for our schemes' meshes");
+  }
+  std::vector<float> error(distance.triangle_upper.size());
+  for (size_t t = 0; t < error.size(); ++t) {
+    const float f = static_cast<float>(distance.triangle_upper[t]);
+    error[t] = f < distance.triangle_upper[t] ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+  }
+  io::MeshWriteOptions w;
+  w.face_error = &error;
+  io::write_ply(mesh, o.error_ply, w);
+  doc["error_ply"] = o.error_ply;
+}
+
+// The one-paragraph summary on stdout.
+void print_validation(const Validation& validation, const Tessellation& mesh, const nlohmann::json& doc) {
+  const DistanceReport& distance = validation.distance;
+  const TopologyReport& topo = validation.topology;
+  std::cout << "hausdorff in [" << distance.hausdorff.lower << ", " << distance.hausdorff.upper << "]"
+            << (distance.hausdorff.certified ? "" : " (upper not certified)") << "; mesh->surface ["
+            << distance.mesh_to_surface.lower << ", " << distance.mesh_to_surface.upper << "]; surface->mesh ["
+            << distance.surface_to_mesh.lower << ", " << distance.surface_to_mesh.upper << "]; "
+            << mesh.triangles.size() << " triangles; open edges " << topo.open_edges << " (model boundary "
+            << topo.model_boundary_edges << ", cracks " << topo.crack_edges << "), T-junctions " << topo.t_junctions
+            << ", non-manifold " << topo.non_manifold_edges << ", misoriented " << topo.inconsistent_orientation_edges
+            << ", duplicated faces " << topo.duplicated_faces << "; components " << topo.components << " (closed "
+            << topo.closed_components << ", inside-out " << topo.inside_out_components << "); "
+            << doc["seconds"].get<double>() << " s\n";
+  if (!distance.not_certified_reason.empty()) std::cout << "not certified: " << distance.not_certified_reason << "\n";
+}
 
 int run_validate(const ValidateOptions& o) {
   check_outputs({{"--json", o.json}, {"--error-ply", o.error_ply}}, {o.input, o.mesh});
@@ -106,101 +113,39 @@ int run_validate(const ValidateOptions& o) {
     mesh = io::read_mesh(o.mesh);
     doc["mesh"] = o.mesh;
   } else {
-    SchemeOptions scheme = o.scheme;
-    scheme.surface_data = true;
-    nlohmann::json stats;
+    SchemeSpec spec = scheme_spec(o.scheme);
+    spec.surface_data = true;
+    SchemeStats stats;
     const Stopwatch clock;
-    mesh = run_scheme(model, topology, scheme, stats);
+    mesh = tessellate(model, topology, spec, &stats);
     tessellation_seconds = clock.seconds();
-    doc["tessellation"] = stats;
+    doc["tessellation"] = scheme_stats_json(stats);
     doc["tessellation"]["seconds"] = tessellation_seconds;
   }
   doc["triangles"] = mesh.triangles.size();
   doc["vertices"] = mesh.positions.size();
   doc["dropped_degenerate_triangles"] = mesh.degenerate_triangles;
 
-  const Stopwatch clock;
-  CertifyOptions certify;
-  certify.max_depth = o.max_depth;
-  DistanceReport distance;
+  ValidationOptions options;
+  options.max_depth = o.max_depth;
+  options.reference_segments = o.reference_segments;
+  Validation validation;
   {
-    // On a terminal, a line showing the certification running (it can take minutes).
+    // On a terminal, a line showing the validation running (it can take minutes).
     const ProgressTicker progress("sagitta validate:", "certifying " + std::to_string(mesh.triangles.size()) + " triangles");
-    if (mesh.has_surface()) {
-      distance = certify_distance(model, mesh, certify);
-      doc["method"] = "bernstein";
-    } else {
-      ExternalOptions external;
-      external.reference_segments = o.reference_segments;
-      external.certify = certify;
-      distance = certify_external(model, mesh, external);
-      doc["method"] = "reference";
-      doc["reference_segments"] = o.reference_segments;
-    }
+    validation = validate_mesh(model, topology, mesh, options);
   }
-  const double distance_seconds = clock.seconds();
-  const Stopwatch topo_clock;
-  const TopologyReport topo = check_mesh_topology(mesh, &model, &topology);
-  const double topology_seconds = topo_clock.seconds();
+  const DistanceReport& distance = validation.distance;
+  doc.update(validation_json(model, topology, mesh, options, validation));
+  if (tessellation_seconds > 0.0)
+    doc["validation_to_tessellation_ratio"] = doc["seconds"].get<double>() / tessellation_seconds;
 
-  doc["hausdorff"] = interval_json(distance.hausdorff);
-  doc["mesh_to_surface"] = interval_json(distance.mesh_to_surface);
-  doc["surface_to_mesh"] = interval_json(distance.surface_to_mesh);
-  doc["certified"] = distance.hausdorff.certified;
-  doc["coverage_ok"] = distance.coverage_ok;
-  if (!distance.coverage_note.empty()) doc["coverage_note"] = distance.coverage_note;
-  if (!distance.not_certified_reason.empty()) doc["not_certified_reason"] = distance.not_certified_reason;
-  doc["rounding_term"] = distance.rounding;
-  doc["subtriangles"] = distance.leaves;
-  doc["triangles_at_depth_budget"] = distance.budget_exhausted;
-  doc["max_depth"] = o.max_depth;
-  doc["topology"] = topology_report_json(topo);
-  doc["model_topology"] = topology_json(model, topology);
-  doc["distance_seconds"] = distance_seconds;
-  doc["topology_seconds"] = topology_seconds;
-  doc["seconds"] = distance_seconds + topology_seconds;
-  if (tessellation_seconds > 0.0) doc["validation_to_tessellation_ratio"] = (distance_seconds + topology_seconds) / tessellation_seconds;
-
-  // Requirements.
-  nlohmann::json failed = nlohmann::json::array();
-  if (o.max_error >= 0.0) {
-    doc["max_error"] = o.max_error;
-    if (!(distance.hausdorff.upper <= o.max_error)) {
-      failed.push_back(distance.hausdorff.lower > o.max_error ? "max-error: the distance exceeds it (lower bound above)"
-                                                               : "max-error: not certified (upper bound above)");
-    }
-  }
-  if (o.require_watertight && !topo.watertight()) failed.push_back("watertight: cracks, T-junctions or non-manifold edges found");
-  doc["requirements_failed"] = failed;
-
-  if (!o.error_ply.empty()) {
-    if (distance.triangle_upper.size() != mesh.triangles.size()) {
-      throw InputError("--error-ply needs a mesh with (u, v): per-triangle bounds exist only for our schemes' meshes");
-    }
-    std::vector<float> error(distance.triangle_upper.size());
-    for (size_t t = 0; t < error.size(); ++t) {
-      const float f = static_cast<float>(distance.triangle_upper[t]);
-      error[t] = f < distance.triangle_upper[t] ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
-    }
-    io::MeshWriteOptions w;
-    w.face_error = &error;
-    io::write_ply(mesh, o.error_ply, w);
-    doc["error_ply"] = o.error_ply;
-  }
+  const nlohmann::json failed = failed_requirements(o, validation, doc);
+  if (!o.error_ply.empty()) write_error_ply(o, mesh, distance, doc);
   doc["total_seconds"] = total.seconds();
   if (!o.json.empty()) write_json(o.json, doc);
 
-  std::cout << "hausdorff in [" << distance.hausdorff.lower << ", " << distance.hausdorff.upper << "]"
-            << (distance.hausdorff.certified ? "" : " (upper not certified)") << "; mesh->surface ["
-            << distance.mesh_to_surface.lower << ", " << distance.mesh_to_surface.upper << "]; surface->mesh ["
-            << distance.surface_to_mesh.lower << ", " << distance.surface_to_mesh.upper << "]; " << mesh.triangles.size()
-            << " triangles; open edges " << topo.open_edges << " (model boundary " << topo.model_boundary_edges
-            << ", cracks " << topo.crack_edges << "), T-junctions " << topo.t_junctions << ", non-manifold "
-            << topo.non_manifold_edges << ", misoriented " << topo.inconsistent_orientation_edges << ", duplicated faces "
-            << topo.duplicated_faces << "; components " << topo.components << " (closed " << topo.closed_components
-            << ", inside-out " << topo.inside_out_components << "); "
-            << doc["seconds"].get<double>() << " s\n";
-  if (!distance.not_certified_reason.empty()) std::cout << "not certified: " << distance.not_certified_reason << "\n";
+  print_validation(validation, mesh, doc);
   for (const auto& f : failed) std::cerr << "sagitta validate: requirement failed: " << f.get<std::string>() << "\n";
   return failed.empty() ? 0 : kExitRequirementFailed;
 }

@@ -1,25 +1,25 @@
 // The `_sagitta` Python module: the same C++ code as the CLI, for FreeCAD 0.20's Python (the system
 // Python 3.11) and for scripts. Arrays come back as NumPy arrays; errors as ValueError. Tessellation
-// and validation go through the CLI's own functions (run_scheme, the validate report fields), so the
-// numbers here are the numbers `sagitta tessellate --stats` and `sagitta validate --json` print.
-#include "commands.hpp"
-#include "fit_json.hpp"
-#include "schemes.hpp"
-
+// and validation go through the application layer the CLI uses (sagitta::tessellate, app::validate_mesh
+// and its report), so the numbers here are the numbers `sagitta tessellate --stats` and
+// `sagitta validate --json` print.
+#include "sagitta/app/common.hpp"
+#include "sagitta/app/json.hpp"
+#include "sagitta/app/validate.hpp"
 #include "sagitta/certify.hpp"
 #include "sagitta/fit.hpp"
 #include "sagitta/fixtures.hpp"
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/io/model_io.hpp"
 #include "sagitta/mesh_check.hpp"
-#include "sagitta/uniform.hpp"
 #include "sagitta/occt/cad.hpp"
+#include "sagitta/scheme.hpp"
+#include "sagitta/uniform.hpp"
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include <chrono>
 #include <cmath>
 #include <optional>
 
@@ -27,10 +27,6 @@ namespace py = pybind11;
 using namespace sagitta;
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 // An (N, 3) float64 array of the vectors.
 py::array_t<double> vectors(const std::vector<Vec3>& v) {
@@ -149,17 +145,19 @@ Tessellation mesh_from_arrays(py::array_t<double, py::array::c_style | py::array
 
 // Runs a scheme exactly as `sagitta tessellate` does and returns the mesh (with surface data, so it
 // can be validated) and the statistics the CLI writes with --stats (less input and topology).
-std::pair<Tessellation, py::dict> tessellate(const Model& model, const cli::SchemeOptions& options_in) {
-  cli::SchemeOptions options = options_in;
-  options.surface_data = true;
+std::pair<Tessellation, py::dict> tessellate(const Model& model, const SchemeSpec& spec_in) {
+  SchemeSpec spec = spec_in;
+  spec.surface_data = true;
   nlohmann::json stats;
   Tessellation mesh;
   {
     py::gil_scoped_release release;
     const Topology topology = build_topology(model);
-    const auto start = Clock::now();
-    mesh = cli::run_scheme(model, topology, options, stats);
-    stats["seconds"] = seconds_since(start);
+    SchemeStats scheme_stats;
+    const app::Stopwatch clock;
+    mesh = sagitta::tessellate(model, topology, spec, &scheme_stats);
+    stats = app::scheme_stats_json(scheme_stats);
+    stats["seconds"] = clock.seconds();
     stats["patches"] = model.patches.size();
     stats["vertices"] = mesh.positions.size();
     stats["triangles"] = mesh.triangles.size();
@@ -175,48 +173,17 @@ py::dict validate(const Model& model, const Tessellation& mesh, int max_depth, i
   if (max_depth < 0 || max_depth > 10) throw InputError("max_depth must be in 0..10");
   if (reference_segments < 1 || reference_segments > 1024) throw InputError("reference_segments must be in 1..1024");
   nlohmann::json doc;
-  DistanceReport distance;
-  TopologyReport topo;
+  app::Validation validation;
   {
     py::gil_scoped_release release;
     const Topology topology = build_topology(model);
-    CertifyOptions certify;
-    certify.max_depth = max_depth;
-    const auto start = Clock::now();
-    if (mesh.has_surface()) {
-      distance = certify_distance(model, mesh, certify);
-      doc["method"] = "bernstein";
-    } else {
-      ExternalOptions external;
-      external.reference_segments = reference_segments;
-      external.certify = certify;
-      distance = certify_external(model, mesh, external);
-      doc["method"] = "reference";
-      doc["reference_segments"] = reference_segments;
-    }
-    doc["distance_seconds"] = seconds_since(start);
-    const auto topo_start = Clock::now();
-    topo = check_mesh_topology(mesh, &model, &topology);
-    doc["topology_seconds"] = seconds_since(topo_start);
-    doc["seconds"] = doc["distance_seconds"].get<double>() + doc["topology_seconds"].get<double>();
-    doc["patches"] = model.patches.size();
-    doc["triangles"] = mesh.triangles.size();
-    doc["vertices"] = mesh.positions.size();
-    doc["dropped_degenerate_triangles"] = mesh.degenerate_triangles;
-    doc["hausdorff"] = cli::interval_json(distance.hausdorff);
-    doc["mesh_to_surface"] = cli::interval_json(distance.mesh_to_surface);
-    doc["surface_to_mesh"] = cli::interval_json(distance.surface_to_mesh);
-    doc["certified"] = distance.hausdorff.certified;
-    doc["coverage_ok"] = distance.coverage_ok;
-    if (!distance.coverage_note.empty()) doc["coverage_note"] = distance.coverage_note;
-    if (!distance.not_certified_reason.empty()) doc["not_certified_reason"] = distance.not_certified_reason;
-    doc["rounding_term"] = distance.rounding;
-    doc["subtriangles"] = distance.leaves;
-    doc["triangles_at_depth_budget"] = distance.budget_exhausted;
-    doc["max_depth"] = max_depth;
-    doc["topology"] = cli::topology_report_json(topo);
-    doc["model_topology"] = cli::topology_json(model, topology);
+    app::ValidationOptions options;
+    options.max_depth = max_depth;
+    options.reference_segments = reference_segments;
+    validation = app::validate_mesh(model, topology, mesh, options);
+    doc = app::validation_json(model, topology, mesh, options, validation);
   }
+  const DistanceReport& distance = validation.distance;
   py::dict out = to_python(doc).cast<py::dict>();
   py::array_t<double> error(static_cast<py::ssize_t>(distance.triangle_upper.size()));
   std::copy(distance.triangle_upper.begin(), distance.triangle_upper.end(), error.mutable_data());
@@ -290,6 +257,7 @@ PYBIND11_MODULE(_sagitta, m) {
                std::to_string(t.triangles.size()) + " triangles>";
       });
 
+  m.def("scheme_names", &scheme_names, "The schemes tessellate() accepts, in the CLI's order (uniform, pn, esc)");
   m.def("read_model", &io::read_patch_model, py::arg("path"), "Read a .bpt or .rib patch file");
   m.def("parse_bpt", &io::parse_bpt, py::arg("text"), py::arg("name"), "A patch model from .bpt text; `name` names it in messages");
   m.def("default_model", &fixtures::default_model, "The built-in default model (pillow box + rational torus)");
@@ -323,22 +291,23 @@ PYBIND11_MODULE(_sagitta, m) {
       "tessellate",
       [](const Model& model, const std::string& scheme, int level, int segments, double threshold, int base_level,
          const std::string& pattern, const std::string& pn_variant, double tess_factor, uint64_t max_triangles) {
-        cli::SchemeOptions o;
-        o.scheme = scheme;
-        o.level = level;
-        o.segments = segments;
-        o.threshold = threshold;
-        o.base_level = base_level;
-        o.pattern = pattern;
-        o.pn_variant = pn_variant;
-        o.tess_factor = tess_factor;
-        o.max_triangles = max_triangles;
-        return tessellate(model, o);
+        SchemeSpec spec;
+        spec.scheme = parse_scheme(scheme);
+        spec.level = level;
+        spec.segments = segments;
+        spec.threshold = threshold;
+        spec.base_level = base_level;
+        spec.pattern = parse_pn_pattern(pattern);
+        spec.pn_variant = parse_pn_variant(pn_variant);
+        spec.tess_factor = tess_factor;
+        spec.max_triangles = max_triangles;
+        return tessellate(model, spec);
       },
       py::arg("model"), py::arg("scheme") = "uniform", py::arg("level") = -1, py::arg("segments") = -1,
-      py::arg("threshold") = 0.0, py::arg("base_level") = -1, py::arg("pattern") = "integer", py::arg("pn_variant") = "basic",
-      py::arg("tess_factor") = -1.0, py::arg("max_triangles") = uint64_t{200'000'000},
-      "Tessellate with a scheme (uniform | esc | pn), parameters as in `sagitta tessellate`; returns (Mesh, stats dict)");
+      py::arg("threshold") = 0.0, py::arg("base_level") = -1, py::arg("pattern") = "integer",
+      py::arg("pn_variant") = "basic", py::arg("tess_factor") = -1.0, py::arg("max_triangles") = uint64_t{200'000'000},
+      "Tessellate with a scheme (uniform | esc | pn), parameters as in `sagitta tessellate`; returns (Mesh, stats "
+      "dict)");
   m.def("validate", &validate, py::arg("model"), py::arg("mesh"), py::arg("max_depth") = 8, py::arg("reference_segments") = 32,
         "Certified distance intervals (hausdorff, mesh_to_surface, surface_to_mesh) and topology verdict, as in "
         "`sagitta validate --json`, plus triangle_error (per-triangle certified bound; empty without (u, v))");
@@ -346,13 +315,13 @@ PYBIND11_MODULE(_sagitta, m) {
       "fit",
       [](const Model& model, const std::string& scheme, double target_error, int max_refinements) {
         if (!(target_error > 0.0) || !std::isfinite(target_error)) throw InputError("the target error must be a positive number");
-        const FitScheme fit_scheme = parse_fit_scheme(scheme);
+        const Scheme fit_scheme = parse_scheme(scheme);
         nlohmann::json doc;
         {
           py::gil_scoped_release release;
           FitOptions options;
           options.max_refinements = max_refinements;
-          doc = cli::fit_result_json(fit_to_error(model, build_topology(model), fit_scheme, target_error, options));
+          doc = app::fit_result_json(fit_to_error(model, build_topology(model), fit_scheme, target_error, options));
         }
         return to_python(doc);
       },
@@ -363,14 +332,15 @@ PYBIND11_MODULE(_sagitta, m) {
       "tessellate_uniform",
       [](const Model& model, std::optional<int> level, std::optional<int> segments) {
         if (level.has_value() == segments.has_value()) throw InputError("give exactly one of level or segments");
-        UniformParams params;
-        params.segments = level ? segments_for_level(*level) : *segments;
-        params.surface_data = false;
+        SchemeSpec spec;
+        spec.segments = level ? segments_for_level(*level) : *segments;
+        spec.surface_data = false;
+        spec.guard = false;  // as the kernel alone: no size guard
         const Topology topo = build_topology(model);
         py::gil_scoped_release release;
-        const auto start = Clock::now();
-        Tessellation t = tessellate_uniform(model, topo, params);
-        const double seconds = seconds_since(start);
+        const app::Stopwatch clock;
+        Tessellation t = sagitta::tessellate(model, topo, spec);
+        const double seconds = clock.seconds();
         py::gil_scoped_acquire acquire;
         return mesh_dict(t, seconds);
       },

@@ -61,13 +61,13 @@ TEST(FitModels, RefusesTooFewOrBadPoints) {
 TEST(FitToError, RefusesBadArguments) {
   const Model model = fixtures::default_model();
   const Topology topology = build_topology(model);
-  EXPECT_THROW(fit_to_error(model, topology, FitScheme::kEsc, 0.0), InputError);
-  EXPECT_THROW(fit_to_error(model, topology, FitScheme::kEsc, -1e-3), InputError);
-  EXPECT_THROW(fit_to_error(model, topology, FitScheme::kEsc, std::nan("")), InputError);
+  EXPECT_THROW(fit_to_error(model, topology, Scheme::kEsc, 0.0), InputError);
+  EXPECT_THROW(fit_to_error(model, topology, Scheme::kEsc, -1e-3), InputError);
+  EXPECT_THROW(fit_to_error(model, topology, Scheme::kEsc, std::nan("")), InputError);
   FitOptions per_patch;
   per_patch.per_patch = true;
-  EXPECT_THROW(fit_to_error(model, topology, FitScheme::kPn, 0.05, per_patch), InputError);
-  EXPECT_THROW(parse_fit_scheme("bogus"), InputError);
+  EXPECT_THROW(fit_to_error(model, topology, Scheme::kPn, 0.05, per_patch), InputError);
+  EXPECT_THROW(parse_scheme("bogus"), InputError);
 }
 
 TEST(FitToError, UnreachableTargetEndsUnmetWithinTheTriangleLimit) {
@@ -75,14 +75,14 @@ TEST(FitToError, UnreachableTargetEndsUnmetWithinTheTriangleLimit) {
   const Topology topology = build_topology(model);
   FitOptions options;
   options.max_triangles = 20000;
-  for (FitScheme scheme : {FitScheme::kUniform, FitScheme::kEsc}) {
+  for (Scheme scheme : {Scheme::kUniform, Scheme::kEsc}) {
     const FitResult r = fit_to_error(model, topology, scheme, 1e-9, options);
-    EXPECT_FALSE(r.met) << fit_scheme_name(r.scheme);
+    EXPECT_FALSE(r.met) << scheme_name(r.scheme);
     EXPECT_GT(r.certified_error, 1e-9);
     for (const FitSample& s : r.samples) EXPECT_LE(s.triangles, options.max_triangles);
   }
   options.per_patch = true;
-  const FitResult r = fit_to_error(model, topology, FitScheme::kUniform, 1e-9, options);
+  const FitResult r = fit_to_error(model, topology, Scheme::kUniform, 1e-9, options);
   EXPECT_FALSE(r.met);
   for (const FitSample& s : r.samples) EXPECT_LE(s.triangles, options.max_triangles);
 }
@@ -90,12 +90,12 @@ TEST(FitToError, UnreachableTargetEndsUnmetWithinTheTriangleLimit) {
 // The returned mesh, certified again with the validator's default (more thorough) options, must meet
 // the target; its triangle count must match the result.
 void expect_certified(const Model& model, const FitResult& r) {
-  ASSERT_TRUE(r.met) << fit_scheme_name(r.scheme);
+  ASSERT_TRUE(r.met) << scheme_name(r.scheme);
   EXPECT_LE(r.certified_error, r.target_error);
   EXPECT_EQ(r.mesh.triangles.size(), r.triangles);
   const DistanceReport check = certify_distance(model, r.mesh);
   ASSERT_TRUE(check.hausdorff.certified);
-  EXPECT_LE(check.hausdorff.upper, r.target_error) << fit_scheme_name(r.scheme);
+  EXPECT_LE(check.hausdorff.upper, r.target_error) << scheme_name(r.scheme);
   EXPECT_GE(r.iterations, 1);
   EXPECT_FALSE(r.models.empty());
 }
@@ -104,11 +104,11 @@ TEST(FitToError, EverySchemeMeetsItsTargetOnTheDefaultModel) {
   const Model model = fixtures::default_model();
   const Topology topology = build_topology(model);
   const double target = 2e-3 * model_box(model).diagonal();
-  for (FitScheme scheme : {FitScheme::kUniform, FitScheme::kEsc}) {
+  for (Scheme scheme : {Scheme::kUniform, Scheme::kEsc}) {
     expect_certified(model, fit_to_error(model, topology, scheme, target));
   }
   // PN converges to the PN surface of its base mesh: a looser target it can reach at a low base level.
-  expect_certified(model, fit_to_error(model, topology, FitScheme::kPn, 2e-2 * model_box(model).diagonal()));
+  expect_certified(model, fit_to_error(model, topology, Scheme::kPn, 2e-2 * model_box(model).diagonal()));
 }
 
 // Brute force: the smallest segment count whose certified error meets the target, scanning every N.
@@ -116,7 +116,7 @@ TEST(FitToError, UniformFitIsWithinAQuarterOfTheBruteForceOptimum) {
   const Model model = fixtures::default_model();
   const Topology topology = build_topology(model);
   const double target = 2e-3 * model_box(model).diagonal();
-  const FitResult fit = fit_to_error(model, topology, FitScheme::kUniform, target);
+  const FitResult fit = fit_to_error(model, topology, Scheme::kUniform, target);
   ASSERT_TRUE(fit.met);
   int best = 0;
   for (int n = 1; n <= fit.level && best == 0; ++n) {
@@ -136,7 +136,7 @@ TEST(FitToError, PerPatchUniformLevelsMeetTheTargetWithoutCracks) {
   const double target = 2e-3 * model_box(model).diagonal();
   FitOptions options;
   options.per_patch = true;
-  const FitResult r = fit_to_error(model, topology, FitScheme::kUniform, target, options);
+  const FitResult r = fit_to_error(model, topology, Scheme::kUniform, target, options);
   expect_certified(model, r);
   ASSERT_EQ(r.patches.size(), model.patches.size());
   for (const PatchChoice& p : r.patches) EXPECT_LE(p.certified_error, target) << "patch " << p.patch;

@@ -88,7 +88,7 @@ void compare_with_grid(const std::string& name) {
   const Model model = io::read_bpt(path);
   const Topology topology = build_topology(model);
 
-  const FitResult fit = fit_to_error(model, topology, FitScheme::kEsc, kTarget);
+  const FitResult fit = fit_to_error(model, topology, Scheme::kEsc, kTarget);
   ASSERT_TRUE(fit.met) << name;
   ASSERT_LE(fit.certified_error, kTarget);
 

@@ -6,7 +6,7 @@
 #include "mesh_distance.hpp"
 #include "sagitta/budget.hpp"
 #include "sagitta/evaluate.hpp"
-#include "sagitta/uniform.hpp"
+#include "sagitta/scheme.hpp"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/distance.h>
@@ -181,9 +181,10 @@ DistanceReport certify_external_conditioned(const Model& model, const Tessellati
   DistanceReport report;
   // Reference: uniform tessellation with its own certified interval.
   const Topology topology = build_topology(model);
-  UniformParams params;
-  params.segments = options.reference_segments;
-  const Tessellation reference = tessellate_uniform(model, topology, params);
+  SchemeSpec reference_spec;
+  reference_spec.segments = options.reference_segments;
+  reference_spec.guard = false;  // as the kernel alone: no front end's size guard
+  const Tessellation reference = tessellate(model, topology, reference_spec);
   const DistanceReport ref = certify_distance(model, reference, options.certify);
   const double eps_m2s = ref.mesh_to_surface.upper;  // every reference point is this close to S
   const double eps_s2m = ref.surface_to_mesh.upper;  // every surface point is this close to the reference

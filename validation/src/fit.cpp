@@ -2,7 +2,7 @@
 #include "sagitta/fit.hpp"
 
 #include "sagitta/esc.hpp"
-#include "sagitta/pn.hpp"
+#include "sagitta/scheme.hpp"
 #include "sagitta/uniform.hpp"
 
 #include <ceres/ceres.h>
@@ -97,37 +97,34 @@ struct Setting {
 
 class Runner {
  public:
-  Runner(const Model& model, const Topology& topology, FitScheme scheme, const FitOptions& options)
+  Runner(const Model& model, const Topology& topology, Scheme scheme, const FitOptions& options)
       : model_(model), topology_(topology), scheme_(scheme), options_(options) {}
 
+  // The setting's tessellation, without the front ends' size guard: the fit bounds its settings by
+  // FitOptions::max_triangles itself.
   Tessellation tessellate(const Setting& s) const {
+    SchemeSpec spec;
+    spec.scheme = scheme_;
+    spec.guard = false;
     switch (scheme_) {
-      case FitScheme::kUniform: {
-        UniformParams params;
-        params.segments = s.level;
-        params.patch_levels = s.patch_levels;
-        params.normals = false;
-        return tessellate_uniform(model_, topology_, params);
-      }
-      case FitScheme::kEsc: {
-        EscParams params;
-        params.level = s.level;
-        params.threshold = s.threshold;
-        params.patch_thresholds = s.patch_thresholds;
-        params.per_edge_levels = options_.esc_per_edge_levels;
-        params.normals = false;
-        return tessellate_esc(model_, topology_, params);
-      }
-      case FitScheme::kPn: {
-        UniformParams base;
-        base.segments = segments_for_level(s.base_level);
-        base.normals = true;
-        PnParams params;
-        params.factor = s.level;
-        return tessellate_pn(tessellate_uniform(model_, topology_, base), params);
-      }
+      case Scheme::kUniform:
+        spec.segments = s.level;
+        spec.patch_levels = s.patch_levels;
+        spec.vertex_normals = false;
+        break;
+      case Scheme::kEsc:
+        spec.level = s.level;
+        spec.threshold = s.threshold;
+        spec.patch_thresholds = s.patch_thresholds;
+        spec.per_edge_levels = options_.esc_per_edge_levels;
+        spec.vertex_normals = false;
+        break;
+      case Scheme::kPn:
+        spec.base_level = s.base_level;
+        spec.level = s.level;
+        break;
     }
-    throw InputError("unknown fit scheme");
+    return sagitta::tessellate(model_, topology_, spec);
   }
 
   uint64_t triangles(const Setting& s) const { return tessellate(s).triangles.size(); }
@@ -141,8 +138,9 @@ class Runner {
     const DistanceReport r = certify_distance(model_, mesh, options_.certify);
     ++certifications;
     if (!r.hausdorff.certified && stage == "measure") {
-      throw InputError(fit_scheme_name(scheme_) + " fit: the validator cannot certify an upper bound for this scheme on this model (" +
-                       (r.coverage_note.empty() ? std::string("surface-to-mesh not certified") : r.coverage_note) + ")");
+      throw InputError(
+          scheme_name(scheme_) + " fit: the validator cannot certify an upper bound for this scheme on this model (" +
+          (r.coverage_note.empty() ? std::string("surface-to-mesh not certified") : r.coverage_note) + ")");
     }
     FitSample sample;
     sample.level = s.level;
@@ -164,7 +162,7 @@ class Runner {
  private:
   const Model& model_;
   const Topology& topology_;
-  FitScheme scheme_;
+  Scheme scheme_;
   const FitOptions& options_;
 };
 
@@ -565,22 +563,6 @@ void fit_esc_per_patch(Runner& run, FitResult& result, const Model& model, const
 
 // ---- Public -----------------------------------------------------------------------------------------
 
-std::string fit_scheme_name(FitScheme scheme) {
-  switch (scheme) {
-    case FitScheme::kUniform: return "uniform";
-    case FitScheme::kEsc: return "esc";
-    case FitScheme::kPn: return "pn";
-  }
-  return "?";
-}
-
-FitScheme parse_fit_scheme(const std::string& name) {
-  if (name == "uniform") return FitScheme::kUniform;
-  if (name == "esc") return FitScheme::kEsc;
-  if (name == "pn") return FitScheme::kPn;
-  throw InputError("unknown scheme '" + name + "' (expected uniform, esc or pn)");
-}
-
 double FittedModel::predict(double x, int at_level) const {
   if (name == "power_law") return parameters[0] * std::pow(x, parameters[1]);
   if (name == "floor_plus_power") return parameters[0] + (x > 0.0 ? parameters[1] * std::pow(x, parameters[2]) : 0.0);
@@ -655,7 +637,7 @@ double invert_model(const FittedModel& model, double target, double x_min, doubl
   return lo;
 }
 
-FitResult fit_to_error(const Model& model, const Topology& topology, FitScheme scheme, double target_error,
+FitResult fit_to_error(const Model& model, const Topology& topology, Scheme scheme, double target_error,
                        const FitOptions& options) {
   if (!(target_error > 0.0) || !std::isfinite(target_error)) {
     throw InputError("target error must be positive and finite, got " + std::to_string(target_error));
@@ -666,13 +648,13 @@ FitResult fit_to_error(const Model& model, const Topology& topology, FitScheme s
   result.target_error = target_error;
   Runner run(model, topology, scheme, options);
   switch (scheme) {
-    case FitScheme::kUniform:
+    case Scheme::kUniform:
       options.per_patch ? fit_uniform_per_patch(run, result, model, options) : fit_uniform(run, result, model, options);
       break;
-    case FitScheme::kEsc:
+    case Scheme::kEsc:
       options.per_patch ? fit_esc_per_patch(run, result, model, options) : fit_esc(run, result, model, options);
       break;
-    case FitScheme::kPn:
+    case Scheme::kPn:
       if (options.per_patch) throw InputError("--per-patch is available for uniform and esc, not pn");
       fit_pn(run, result, model, options);
       break;

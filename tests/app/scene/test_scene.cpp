@@ -2,11 +2,11 @@
 // (far camera -> fewer triangles; half the cups out of view -> about half the triangles; the
 // certified screen-space error of every visible patch, recomputed here from the output mesh with
 // the validator and per-vertex depths, is within the tolerance; culled patches are really unseen).
+#include "sagitta/app/scene_plan.hpp"
 #include "sagitta/certify.hpp"
 #include "sagitta/evaluate.hpp"
 #include "sagitta/io/scene_io.hpp"
 #include "sagitta/mesh_check.hpp"
-#include "scene_plan.hpp"
 #include "test_support.hpp"
 
 #include <glm/geometric.hpp>
@@ -21,6 +21,8 @@
 
 namespace sagitta {
 namespace {
+
+namespace scene = app::scene;
 
 std::string scene_file(const std::string& name) { return std::string(SAGITTA_SOURCE_DIR) + "/fixtures/scenes/" + name + ".json"; }
 

@@ -8,6 +8,7 @@
 
 #include "sagitta/certify.hpp"
 #include "sagitta/model.hpp"
+#include "sagitta/scheme.hpp"
 #include "sagitta/tessellation.hpp"
 
 #include <cstdint>
@@ -16,12 +17,6 @@
 #include <vector>
 
 namespace sagitta {
-
-enum class FitScheme { kUniform, kEsc, kPn };
-
-// "uniform" | "esc" | "pn"; parse_fit_scheme throws InputError for anything else.
-std::string fit_scheme_name(FitScheme scheme);
-FitScheme parse_fit_scheme(const std::string& name);
 
 // One measured point: a parameter setting, its triangle count and its certified error.
 struct FitSample {
@@ -88,7 +83,7 @@ struct PatchChoice {
 };
 
 struct FitResult {
-  FitScheme scheme = FitScheme::kUniform;
+  Scheme scheme = Scheme::kUniform;
   double target_error = 0.0;
   bool met = false;           // certified_error <= target_error
   int level = 0;              // the chosen parameter (see FitSample::level)
@@ -110,7 +105,7 @@ struct FitResult {
 // options.certify) is result.certified_error <= target_error. When the target cannot be met within
 // the scheme's range or max_refinements, met == false and the best attempt is returned. Throws
 // InputError for a target that is not positive and finite.
-FitResult fit_to_error(const Model& model, const Topology& topology, FitScheme scheme, double target_error,
+FitResult fit_to_error(const Model& model, const Topology& topology, Scheme scheme, double target_error,
                        const FitOptions& options = {});
 
 // Fits error = C * x^p to (x, error) pairs with Ceres (Huber loss on log residuals). Needs two or

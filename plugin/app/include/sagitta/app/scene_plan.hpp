@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-namespace sagitta::scene {
+namespace sagitta::app::scene {
 
 // A scene with its models read, their topologies built, and what back-face culling may assume.
 struct LoadedScene {
@@ -47,11 +47,11 @@ enum class PatchState : uint8_t { kVisible, kOutsideView, kBackFacing };
 
 struct PatchChoice {
   PatchState state = PatchState::kVisible;
-  int parameter = 0;            // uniform level, or ESC threshold index (threshold = scale * 2^-index)
-  double required_error = 0.0;  // model-space error the tolerance allows (0: box reaches the eye plane)
-  double certified_error = 0.0; // model-space certified error of the patch as tessellated
-  double error_pixels = 0.0;    // certified error projected to the screen (conservative)
-  bool over_tolerance = false;  // the finest parameter still exceeds the tolerance
+  int parameter = 0;             // uniform level, or ESC threshold index (threshold = scale * 2^-index)
+  double required_error = 0.0;   // model-space error the tolerance allows (0: box reaches the eye plane)
+  double certified_error = 0.0;  // model-space certified error of the patch as tessellated
+  double error_pixels = 0.0;     // certified error projected to the screen (conservative)
+  bool over_tolerance = false;   // the finest parameter still exceeds the tolerance
 };
 
 struct ModelCounts {
@@ -60,16 +60,16 @@ struct ModelCounts {
 };
 
 struct SceneResult {
-  Tessellation mesh;                         // world space; triangle_patch indexes `world`
-  Model world;                               // the visible patches, transformed
-  std::vector<uint32_t> world_instance;      // per world patch: its instance
-  std::vector<uint32_t> world_model_patch;   // per world patch: its patch in the instance's model
+  Tessellation mesh;                              // world space; triangle_patch indexes `world`
+  Model world;                                    // the visible patches, transformed
+  std::vector<uint32_t> world_instance;           // per world patch: its instance
+  std::vector<uint32_t> world_model_patch;        // per world patch: its patch in the instance's model
   std::vector<std::vector<PatchChoice>> choices;  // per instance, per model patch
   std::vector<ModelCounts> models;
   uint64_t culled_outside = 0, culled_backfacing = 0, over_tolerance = 0;
-  uint64_t stitch_refinements = 0;           // levels raised because stitching to a finer neighbour cost accuracy
-  std::vector<uint64_t> parameter_histogram; // visible patches per parameter value
-  std::vector<double> esc_thresholds;        // ESC: threshold per index, per model (model-major)
+  uint64_t stitch_refinements = 0;            // levels raised because stitching to a finer neighbour cost accuracy
+  std::vector<uint64_t> parameter_histogram;  // visible patches per parameter value
+  std::vector<double> esc_thresholds;         // ESC: threshold per index, per model (model-major)
   double certify_seconds = 0.0, tessellate_seconds = 0.0;
 };
 
@@ -103,4 +103,4 @@ SceneResult tessellate_scene(const LoadedScene& scene, const std::function<void(
 // Largest singular value of the linear part of an affine transform (how much it can stretch an error).
 double largest_stretch(const glm::dmat4& transform);
 
-}  // namespace sagitta::scene
+}  // namespace sagitta::app::scene

@@ -1,4 +1,4 @@
-#include "scene_plan.hpp"
+#include "sagitta/app/scene_plan.hpp"
 
 #include "sagitta/budget.hpp"
 #include "sagitta/certify.hpp"
@@ -6,11 +6,12 @@
 #include "sagitta/fixtures.hpp"
 #include "sagitta/io/model_io.hpp"
 #include "sagitta/mesh_check.hpp"
+#include "sagitta/scheme.hpp"
 #include "sagitta/uniform.hpp"
 
+#include <tbb/parallel_for.h>
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
@@ -20,7 +21,7 @@
 #include <limits>
 #include <map>
 
-namespace sagitta::scene {
+namespace sagitta::app::scene {
 
 namespace {
 
@@ -34,10 +35,11 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 // +1 / -1 when the model is closed and consistently oriented (du x dv out of / into the solid), else 0.
 int closed_orientation(const Model& model, const Topology& topology) {
   if (topology.free_edges() != 0 || topology.nonmanifold_edges() != 0 || !topology.near_misses.empty()) return 0;
-  UniformParams params;
-  params.segments = 4;
-  params.normals = false;
-  const Tessellation mesh = tessellate_uniform(model, topology, params);
+  SchemeSpec spec;
+  spec.segments = 4;
+  spec.vertex_normals = false;
+  spec.guard = false;
+  const Tessellation mesh = tessellate(model, topology, spec);
   const TopologyReport report = check_mesh_topology(mesh, &model, &topology);
   if (!report.watertight() || report.open_edges != 0 || report.inconsistent_orientation_edges != 0) return 0;
   double volume = 0.0;  // six times the signed volume (divergence theorem)
@@ -182,6 +184,19 @@ bool faces_away(const BezierPatch& patch, const std::vector<Vec3>& world, int ou
   return true;
 }
 
+// One instance's plan: per patch its choice, its parameter q and its nearest depth.
+struct InstancePlan {
+  InstancePlan(const io::SceneInstance& instance_, size_t patches)
+      : instance(instance_), model(instance_.model), choices(patches), q(patches, 0), min_depth(patches, 0.0) {}
+  const io::SceneInstance& instance;
+  size_t model = 0;
+  double stretch = 1.0;  // largest_stretch of the instance's transform
+  int outward = 0;       // the model's facing, flipped by a mirroring transform
+  std::vector<PatchChoice> choices;
+  std::vector<int> q;
+  std::vector<double> min_depth;
+};
+
 }  // namespace
 
 // Per-model tessellation with one parameter per patch, and the error caches of the level choice.
@@ -196,6 +211,62 @@ class ScenePlanner::Caches {
 
   bool esc() const { return esc_; }
   int finest() const { return finest_; }
+
+  // Stage 1 of run(): culls each patch of the instance, and for a visible one sets the error the
+  // tolerance allows and the coarsest parameter meeting it on its own.
+  void choose(InstancePlan& plan, const Model& model, const View& view, double tolerance_pixels) {
+    const size_t mi = plan.model;
+    const size_t np = model.patches.size();
+    for (uint32_t p = 0; p < np; ++p) {
+      PatchChoice& c = plan.choices[p];
+      const std::vector<Vec3> world = transformed_points(model.patches[p], plan.instance.transform);
+      if (outside_view(world, view)) {
+        c.state = PatchState::kOutsideView;
+        continue;
+      }
+      if (faces_away(model.patches[p], world, plan.outward, view)) {
+        c.state = PatchState::kBackFacing;
+        continue;
+      }
+      double depth = std::numeric_limits<double>::infinity();
+      for (const Vec3& x : world) depth = std::min(depth, view.depth(x));
+      plan.min_depth[p] = depth;
+      // Where the box reaches the eye plane no finite level is provably enough: use the finest.
+      c.required_error = depth > 0.0 ? tolerance_pixels * depth / (view.focal_px * plan.stretch) : 0.0;
+      int level = 0;
+      while (level < finest() && !(plain_error(mi, p, level) <= c.required_error)) ++level;
+      plan.q[p] = level;
+    }
+  }
+
+  // Stage 2 of run(): a patch next to a finer neighbour is triangulated differently along that side;
+  // its certified error is checked as tessellated and its parameter raised until it holds. Returns
+  // the instance's model-space mesh with the final parameters; counts the raises.
+  Tessellation stitch(InstancePlan& plan, size_t np, uint64_t& stitch_refinements) {
+    const size_t mi = plan.model;
+    Tessellation mesh;
+    for (;;) {
+      budget::check("the scene");
+      mesh = tessellate(mi, plan.q);
+      const std::vector<std::vector<uint32_t>> by_patch = triangles_by_patch(mesh, np);
+      bool changed = false;
+      for (uint32_t p = 0; p < np; ++p) {
+        PatchChoice& c = plan.choices[p];
+        if (c.state != PatchState::kVisible) continue;
+        const std::array<int, 4> sides = side_parameters(mi, p, plan.q);
+        const bool stitched = std::any_of(sides.begin(), sides.end(), [&](int s) { return s > plan.q[p]; });
+        c.certified_error = stitched ? stitched_error(mi, p, plan.q, mesh, by_patch[p]) : plain_error(mi, p, plan.q[p]);
+        if (!(c.certified_error <= c.required_error) && plan.q[p] < finest() && stitched) {
+          ++plan.q[p];
+          ++stitch_refinements;
+          changed = true;
+        }
+      }
+      if (!changed) break;
+    }
+    return mesh;
+  }
+
   double threshold(size_t model, int index) const {
     return index >= kEscSteps ? 0.0 : scale_[model] * std::ldexp(1.0, -index);
   }
@@ -204,15 +275,16 @@ class ScenePlanner::Caches {
   Tessellation tessellate(size_t model, const std::vector<int>& q) const {
     const Model& m = scene_.models[model];
     const Topology& topology = scene_.topologies[model];
+    SchemeSpec spec;
+    spec.guard = false;  // the planner bounds its sizes itself
     if (esc_) {
-      EscParams params;
-      params.level = std::min(scene_.scene.max_level, kMaxEscLevel);
-      for (int index : q) params.patch_thresholds.push_back(threshold(model, index));
-      return tessellate_esc(m, topology, params);
+      spec.scheme = Scheme::kEsc;
+      spec.level = std::min(scene_.scene.max_level, kMaxEscLevel);
+      for (int index : q) spec.patch_thresholds.push_back(threshold(model, index));
+    } else {
+      spec.patch_levels = q;
     }
-    UniformParams params;
-    params.patch_levels = q;
-    return tessellate_uniform(m, topology, params);
+    return sagitta::tessellate(m, topology, spec);
   }
 
   // Certified error of patch p of `model` when every patch uses parameter q (cached).
@@ -262,7 +334,8 @@ class ScenePlanner::Caches {
       const Topology::SideInfo& info = topology.side(p, s);
       int finest = -1;
       if (!info.collapsed) {
-        for (const SideRef& use : topology.edges[static_cast<size_t>(info.edge)].uses) finest = std::max(finest, q[use.patch]);
+        for (const SideRef& use : topology.edges[static_cast<size_t>(info.edge)].uses)
+          finest = std::max(finest, q[use.patch]);
       }
       sides[static_cast<size_t>(s)] = finest;
     }
@@ -279,6 +352,79 @@ class ScenePlanner::Caches {
   std::vector<std::vector<std::vector<double>>> plain_;  // [model][q][patch]
   std::map<std::tuple<size_t, uint32_t, int, std::array<int, 4>>, double> stitched_;
 };
+
+namespace {
+
+// Stage 3 of run(): records the instance's choices and counts, and appends its visible patches to
+// the world model; returns each patch's world patch (-1: culled).
+std::vector<int64_t> record_choices(InstancePlan& plan, const Model& model, const View& view, double tolerance_pixels,
+                                    size_t inst, ModelCounts& counts, SceneResult& result) {
+  const size_t np = model.patches.size();
+  std::vector<int64_t> world_patch(np, -1);
+  for (uint32_t p = 0; p < np; ++p) {
+    PatchChoice& c = plan.choices[p];
+    c.parameter = plan.q[p];
+    if (c.state == PatchState::kOutsideView) {
+      ++result.culled_outside;
+      continue;
+    }
+    if (c.state == PatchState::kBackFacing) {
+      ++result.culled_backfacing;
+      continue;
+    }
+    c.error_pixels = plan.min_depth[p] > 0.0 ? c.certified_error * plan.stretch * view.focal_px / plan.min_depth[p]
+                                             : std::numeric_limits<double>::infinity();
+    c.over_tolerance = !(c.error_pixels <= tolerance_pixels);
+    result.over_tolerance += c.over_tolerance ? 1 : 0;
+    ++result.parameter_histogram[static_cast<size_t>(plan.q[p])];
+    ++counts.visible_patches;
+    world_patch[p] = static_cast<int64_t>(result.world.patches.size());
+    BezierPatch w = model.patches[p];
+    w.points = transformed_points(model.patches[p], plan.instance.transform);
+    result.world.patches.push_back(std::move(w));
+    result.world_instance.push_back(static_cast<uint32_t>(inst));
+    result.world_model_patch.push_back(p);
+  }
+  return world_patch;
+}
+
+// Appends the triangles of the instance's visible patches to the scene's mesh, in world space.
+void append_world_mesh(const Tessellation& mesh, const io::SceneInstance& instance,
+                       const std::vector<int64_t>& world_patch, size_t inst, ModelCounts& counts, SceneResult& result) {
+  const glm::dmat3 linear(instance.transform);
+  const glm::dmat3 normal_map = glm::transpose(glm::inverse(linear));
+  std::vector<uint32_t> renumber(mesh.positions.size(), UINT32_MAX);
+  Tessellation& out = result.mesh;
+  budget::check_memory(tessellation_bytes(double(out.triangles.size() + mesh.triangles.size()),
+                                          double(out.positions.size() + mesh.positions.size())),
+                       "the scene's mesh after instance " + std::to_string(inst),
+                       "raise the tolerance or --max-memory");
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const int64_t wp = world_patch[mesh.triangle_patch[t]];
+    if (wp < 0) continue;
+    Triangle tri;
+    for (size_t k = 0; k < 3; ++k) {
+      const uint32_t id = mesh.triangles[t][k];
+      if (renumber[id] == UINT32_MAX) {
+        if (out.positions.size() >= UINT32_MAX) throw InputError("the scene needs more than 2^32 vertices");
+        renumber[id] = static_cast<uint32_t>(out.positions.size());
+        out.positions.push_back(Vec3(instance.transform * glm::dvec4(mesh.positions[id], 1.0)));
+        const Vec3 n = normal_map * mesh.normals[id];
+        out.normals.push_back(glm::length(n) > 0.0 ? glm::normalize(n) : mesh.normals[id]);
+        const Vec2& uv = mesh.triangle_uv[t][k];
+        out.surface_points.push_back({static_cast<uint32_t>(wp), uv.x, uv.y});
+      }
+      tri[k] = renumber[id];
+    }
+    out.triangles.push_back(tri);
+    out.triangle_patch.push_back(static_cast<uint32_t>(wp));
+    out.triangle_uv.push_back(mesh.triangle_uv[t]);
+    ++counts.triangles;
+  }
+  out.degenerate_triangles += mesh.degenerate_triangles;
+}
+
+}  // namespace
 
 double View::depth(const Vec3& x) const { return glm::dot(x - eye, forward); }
 
@@ -341,10 +487,12 @@ LoadedScene load_scene(const io::Scene& scene, const std::string& scene_dir, con
     const std::string path = scene_model_path(m, scene_dir, data_dir);
     if (path.empty()) {
       const std::string name = m.source.substr(8);
-      model = name == "pillow_box" ? fixtures::pillow_box() : name == "rational_torus" ? fixtures::rational_torus()
-                                                                                         : fixtures::default_model();
+      model = name == "pillow_box"       ? fixtures::pillow_box()
+              : name == "rational_torus" ? fixtures::rational_torus()
+                                         : fixtures::default_model();
     } else {
-      if (!std::filesystem::exists(path)) throw InputError("scene model \"" + m.name + "\": " + path + ": no such file");
+      if (!std::filesystem::exists(path))
+        throw InputError("scene model \"" + m.name + "\": " + path + ": no such file");
       model = io::read_patch_model(path);
     }
     model.name = m.name;
@@ -383,7 +531,6 @@ SceneResult ScenePlanner::run(const io::SceneCamera& camera, const std::function
     }
   }
   result.mesh.surface_points.clear();
-  double tessellate_seconds = 0.0;
   const auto start_all = std::chrono::steady_clock::now();
 
   for (size_t inst = 0; inst < scene.instances.size(); ++inst) {
@@ -391,125 +538,23 @@ SceneResult ScenePlanner::run(const io::SceneCamera& camera, const std::function
     const size_t mi = instance.model;
     const Model& model = loaded.models[mi];
     const size_t np = model.patches.size();
-    const double stretch = largest_stretch(instance.transform);
-    const int outward = loaded.facing[mi] * (glm::determinant(glm::dmat3(instance.transform)) < 0.0 ? -1 : 1);
-    std::vector<PatchChoice> choices(np);
-    std::vector<int> q(np, 0);
-    std::vector<double> min_depth(np, 0.0);
+    InstancePlan plan(instance, np);
+    plan.stretch = largest_stretch(instance.transform);
+    plan.outward = loaded.facing[mi] * (glm::determinant(glm::dmat3(instance.transform)) < 0.0 ? -1 : 1);
     ModelCounts& counts = result.models[mi];
     ++counts.instances;
     counts.patches += np;
-
-    // 1. Culling, the error the tolerance allows, and the coarsest parameter meeting it on its own.
-    for (uint32_t p = 0; p < np; ++p) {
-      PatchChoice& c = choices[p];
-      const std::vector<Vec3> world = transformed_points(model.patches[p], instance.transform);
-      if (outside_view(world, view)) {
-        c.state = PatchState::kOutsideView;
-        continue;
-      }
-      if (faces_away(model.patches[p], world, outward, view)) {
-        c.state = PatchState::kBackFacing;
-        continue;
-      }
-      double depth = std::numeric_limits<double>::infinity();
-      for (const Vec3& x : world) depth = std::min(depth, view.depth(x));
-      min_depth[p] = depth;
-      // Where the box reaches the eye plane no finite level is provably enough: use the finest.
-      c.required_error = depth > 0.0 ? scene.tolerance_pixels * depth / (view.focal_px * stretch) : 0.0;
-      int level = 0;
-      while (level < planner.finest() && !(planner.plain_error(mi, p, level) <= c.required_error)) ++level;
-      q[p] = level;
-    }
-
-    // 2. Stitching: a patch next to a finer neighbour is triangulated differently along that side;
-    // its certified error is checked as tessellated and its parameter raised until it holds.
-    Tessellation mesh;
-    for (;;) {
-      const auto start = std::chrono::steady_clock::now();
-      budget::check("the scene");
-      mesh = planner.tessellate(mi, q);
-      tessellate_seconds += seconds_since(start);
-      const std::vector<std::vector<uint32_t>> by_patch = triangles_by_patch(mesh, np);
-      bool changed = false;
-      for (uint32_t p = 0; p < np; ++p) {
-        PatchChoice& c = choices[p];
-        if (c.state != PatchState::kVisible) continue;
-        const std::array<int, 4> sides = planner.side_parameters(mi, p, q);
-        const bool stitched = std::any_of(sides.begin(), sides.end(), [&](int s) { return s > q[p]; });
-        c.certified_error = stitched ? planner.stitched_error(mi, p, q, mesh, by_patch[p]) : planner.plain_error(mi, p, q[p]);
-        if (!(c.certified_error <= c.required_error) && q[p] < planner.finest() && stitched) {
-          ++q[p];
-          ++result.stitch_refinements;
-          changed = true;
-        }
-      }
-      if (!changed) break;
-    }
-
-    // 3. Record the choices and append the visible patches' triangles in world space.
-    const glm::dmat3 linear(instance.transform);
-    const glm::dmat3 normal_map = glm::transpose(glm::inverse(linear));
-    std::vector<int64_t> world_patch(np, -1);
-    for (uint32_t p = 0; p < np; ++p) {
-      PatchChoice& c = choices[p];
-      c.parameter = q[p];
-      if (c.state == PatchState::kOutsideView) {
-        ++result.culled_outside;
-        continue;
-      }
-      if (c.state == PatchState::kBackFacing) {
-        ++result.culled_backfacing;
-        continue;
-      }
-      c.error_pixels = min_depth[p] > 0.0 ? c.certified_error * stretch * view.focal_px / min_depth[p]
-                                          : std::numeric_limits<double>::infinity();
-      c.over_tolerance = !(c.error_pixels <= scene.tolerance_pixels);
-      result.over_tolerance += c.over_tolerance ? 1 : 0;
-      ++result.parameter_histogram[static_cast<size_t>(q[p])];
-      ++counts.visible_patches;
-      world_patch[p] = static_cast<int64_t>(result.world.patches.size());
-      BezierPatch w = model.patches[p];
-      w.points = transformed_points(model.patches[p], instance.transform);
-      result.world.patches.push_back(std::move(w));
-      result.world_instance.push_back(static_cast<uint32_t>(inst));
-      result.world_model_patch.push_back(p);
-    }
-    std::vector<uint32_t> renumber(mesh.positions.size(), UINT32_MAX);
-    Tessellation& out = result.mesh;
-    budget::check_memory(tessellation_bytes(double(out.triangles.size() + mesh.triangles.size()),
-                                            double(out.positions.size() + mesh.positions.size())),
-                         "the scene's mesh after instance " + std::to_string(inst), "raise the tolerance or --max-memory");
-    for (size_t t = 0; t < mesh.triangles.size(); ++t) {
-      const int64_t wp = world_patch[mesh.triangle_patch[t]];
-      if (wp < 0) continue;
-      Triangle tri;
-      for (size_t k = 0; k < 3; ++k) {
-        const uint32_t id = mesh.triangles[t][k];
-        if (renumber[id] == UINT32_MAX) {
-          if (out.positions.size() >= UINT32_MAX) throw InputError("the scene needs more than 2^32 vertices");
-          renumber[id] = static_cast<uint32_t>(out.positions.size());
-          out.positions.push_back(Vec3(instance.transform * glm::dvec4(mesh.positions[id], 1.0)));
-          const Vec3 n = normal_map * mesh.normals[id];
-          out.normals.push_back(glm::length(n) > 0.0 ? glm::normalize(n) : mesh.normals[id]);
-          const Vec2& uv = mesh.triangle_uv[t][k];
-          out.surface_points.push_back({static_cast<uint32_t>(wp), uv.x, uv.y});
-        }
-        tri[k] = renumber[id];
-      }
-      out.triangles.push_back(tri);
-      out.triangle_patch.push_back(static_cast<uint32_t>(wp));
-      out.triangle_uv.push_back(mesh.triangle_uv[t]);
-      ++counts.triangles;
-    }
-    out.degenerate_triangles += mesh.degenerate_triangles;
-    result.choices.push_back(std::move(choices));
+    planner.choose(plan, model, view, scene.tolerance_pixels);
+    const Tessellation mesh = planner.stitch(plan, np, result.stitch_refinements);
+    const std::vector<int64_t> world_patch =
+        record_choices(plan, model, view, scene.tolerance_pixels, inst, counts, result);
+    append_world_mesh(mesh, instance, world_patch, inst, counts, result);
+    result.choices.push_back(std::move(plan.choices));
     if (progress) progress(inst + 1, scene.instances.size());
   }
   result.certify_seconds = planner.certify_seconds - certify_before;
   result.tessellate_seconds = seconds_since(start_all) - result.certify_seconds;
-  (void)tessellate_seconds;
   return result;
 }
 
-}  // namespace sagitta::scene
+}  // namespace sagitta::app::scene

@@ -1,4 +1,4 @@
-#include "commands.hpp"
+#include "sagitta/app/common.hpp"
 
 #include "sagitta/fixtures.hpp"
 #include "sagitta/io/mesh_io.hpp"
@@ -7,7 +7,7 @@
 
 #include <filesystem>
 
-namespace sagitta::cli {
+namespace sagitta::app {
 
 Model load_model(const std::string& input, nlohmann::json* cad_stats) {
   if (input.empty() || input == "default") return fixtures::default_model();
@@ -16,8 +16,8 @@ Model load_model(const std::string& input, nlohmann::json* cad_stats) {
     occt::CadModel cad = occt::read_cad_file(input);
     if (cad_stats) *cad_stats = cad_json(cad);
     if (cad.model.patches.empty()) {
-      throw InputError(input + ": no untrimmed face to tessellate (" + std::to_string(cad.faces_trimmed) + " trimmed, " +
-                       std::to_string(cad.faces_skipped) + " skipped; see docs/CAD.md)");
+      throw InputError(input + ": no untrimmed face to tessellate (" + std::to_string(cad.faces_trimmed) +
+                       " trimmed, " + std::to_string(cad.faces_skipped) + " skipped; see docs/CAD.md)");
     }
     return std::move(cad.model);
   }
@@ -37,7 +37,8 @@ nlohmann::json cad_json(const occt::CadModel& cad) {
   j["max_snap"] = cad.max_snap;
   nlohmann::json trimmed = nlohmann::json::array(), skipped = nlohmann::json::array();
   for (const occt::FaceReport& f : cad.faces) {
-    const nlohmann::json face = {{"face", f.name}, {"surface", f.surface_type}, {"reason", f.reason}, {"bezier_patches", f.patch_count}};
+    const nlohmann::json face = {
+        {"face", f.name}, {"surface", f.surface_type}, {"reason", f.reason}, {"bezier_patches", f.patch_count}};
     if (f.status == "trimmed") trimmed.push_back(face);
     if (f.status == "skipped") skipped.push_back(face);
   }
@@ -79,27 +80,4 @@ void check_outputs(const std::vector<NamedPath>& outputs, const std::vector<std:
 
 void write_json(const std::string& path, const nlohmann::json& doc) { io::write_file_atomic(path, doc.dump(2) + "\n"); }
 
-nlohmann::json topology_json(const Model& model, const Topology& topo) {
-  nlohmann::json j;
-  j["shared_edges"] = topo.shared_edges();
-  j["free_boundary_edges"] = topo.free_edges();
-  j["nonmanifold_edges"] = topo.nonmanifold_edges();
-  j["collapsed_sides"] = topo.collapsed_sides();
-  j["corners"] = topo.corner_classes;
-  nlohmann::json misses = nlohmann::json::array();
-  for (const Topology::NearMiss& m : topo.near_misses) {
-    misses.push_back({{"patch_a", m.a.patch}, {"side_a", side_name(m.a.side)}, {"patch_b", m.b.patch},
-                      {"side_b", side_name(m.b.side)}, {"distance", m.distance}});
-  }
-  j["near_misses"] = misses;
-  // Two unmatched sides are listed when their control polygons are closer than the smaller of the
-  // two sides' tolerances: min(model_wide, patch_fraction x the side's patch control-box diagonal).
-  j["near_miss_tolerance"] = {{"model_wide", topo.near_miss_tolerance}, {"patch_fraction", topo.near_miss_patch_fraction}};
-  nlohmann::json near = nlohmann::json::array();
-  for (const SideRef& s : topo.near_collapsed) near.push_back({{"patch", s.patch}, {"side", side_name(s.side)}});
-  j["near_collapsed_sides"] = near;
-  (void)model;
-  return j;
-}
-
-}  // namespace sagitta::cli
+}  // namespace sagitta::app
