@@ -1,4 +1,4 @@
-#include "sagitta/boundary.hpp"
+#include "boundary.hpp"
 
 #include "sagitta/evaluate.hpp"
 

@@ -1,7 +1,8 @@
 #include "sagitta/esc.hpp"
 
+#include "boundary.hpp"
+
 #include "sagitta/budget.hpp"
-#include "sagitta/boundary.hpp"
 #include "sagitta/evaluate.hpp"
 
 #include <glm/geometric.hpp>

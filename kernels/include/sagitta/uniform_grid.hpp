@@ -1,4 +1,4 @@
-// Positions-only uniform tessellation into a caller's buffer (issue 10): the throughput path.
+// Positions-only uniform tessellation into a caller's buffer: the throughput path, writing at memory speed.
 //
 // Every patch is sampled on its own regular (N+1) x (N+1) grid and written as interleaved x, y, z
 // (float32 or double), patch after patch; there are no normals, no surface data, no shared

@@ -1,6 +1,6 @@
-// Shared vertices on patch boundaries: one global vertex per corner class and per sample of each
-// unique boundary curve, evaluated from the curve alone in its canonical direction. Every scheme
-// that samples patch sides uniformly uses this, which is what makes neighbours crack-free.
+// Shared vertices on patch boundaries (private to the kernels): one global vertex per corner class and
+// per sample of each unique boundary curve, evaluated from the curve alone in its canonical direction.
+// Every scheme that samples patch sides uniformly uses this, which is what makes neighbours crack-free.
 #pragma once
 
 #include "sagitta/model.hpp"
