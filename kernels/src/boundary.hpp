@@ -11,10 +11,10 @@
 namespace sagitta {
 
 struct BoundaryLayout {
-  uint32_t corner_base = 0;             // corner class c has vertex id corner_base + c
-  std::vector<uint32_t> edge_base;      // edge e: interior samples k = 1..N-1 have ids edge_base[e] + k - 1
-  std::vector<int> edge_segments;       // N for each edge
-  uint32_t end = 0;                     // one past the last id used
+  uint32_t corner_base = 0;         // corner class c has vertex id corner_base + c
+  std::vector<uint32_t> edge_base;  // edge e: interior samples k = 1..N-1 have ids edge_base[e] + k - 1
+  std::vector<int> edge_segments;   // N for each edge
+  uint32_t end = 0;                 // one past the last id used
 };
 
 // Allocates ids starting at `first_id`. `segments_for_edge(e)` gives N >= 1 for edge e; both
