@@ -34,9 +34,13 @@ uint64_t uniform_triangle_count(const Model& model, int segments) {
   return 2ull * static_cast<uint64_t>(segments) * static_cast<uint64_t>(segments) * model.patches.size();
 }
 
-Tessellation tessellate_uniform(const Model& model, const Topology& topology, const UniformParams& params) {
-  const size_t np = model.patches.size();
-  // Segments of every patch's own grid.
+namespace {
+
+constexpr uint32_t kSkip = UINT32_MAX;  // marks a slot whose triangle repeats a vertex
+
+// Segments of every patch's own grid. Throws InputError for segments < 1 or per-patch levels of
+// the wrong size or outside 0..kMaxUniformLevel.
+std::vector<int> own_segments(size_t np, const UniformParams& params) {
   std::vector<int> own(np, params.segments);
   if (params.patch_levels.empty()) {
     if (params.segments < 1) throw InputError("--segments must be >= 1, got " + std::to_string(params.segments));
@@ -47,28 +51,31 @@ Tessellation tessellate_uniform(const Model& model, const Topology& topology, co
     }
     for (size_t p = 0; p < np; ++p) own[p] = segments_for_level(params.patch_levels[p]);
   }
-  // A boundary curve takes the finest grid among the patches using it (levels nest, so every
-  // user's own segment count divides it).
-  const BoundaryLayout layout = layout_boundary(
-      topology,
-      [&](size_t e) {
-        int n = 1;
-        for (const SideRef& use : topology.edges[e].uses) n = std::max(n, own[use.patch]);
-        return n;
-      },
-      0);
+  return own;
+}
 
-  // Per patch: how many side samples fall on each of its grid's border cells (1 = not refined),
-  // whether it needs a centre vertex (a single cell with a refined side), its vertex and triangle
-  // ranges.
-  struct PatchPlan {
-    int n = 1;
-    int ratio[4] = {1, 1, 1, 1};  // per Side: side segments / n
-    bool centre = false;
-    uint64_t interior_base = 0;
-    uint64_t slot_base = 0;
-  };
-  std::vector<PatchPlan> plans(np);
+// Per patch: how many side samples fall on each of its grid's border cells (1 = not refined),
+// whether it needs a centre vertex (a single cell with a refined side), its vertex and triangle
+// ranges.
+struct PatchPlan {
+  int n = 1;
+  int ratio[4] = {1, 1, 1, 1};  // per Side: side segments / n
+  bool centre = false;
+  uint64_t interior_base = 0;
+  uint64_t slot_base = 0;
+};
+
+// Every patch's plan; `vertices` and `slots` are the totals (side vertices included).
+struct Plan {
+  std::vector<PatchPlan> patches;
+  uint64_t vertices = 0, slots = 0;
+};
+
+Plan plan_patches(const Topology& topology, const BoundaryLayout& layout, const std::vector<int>& own) {
+  const size_t np = own.size();
+  Plan plan_all;
+  std::vector<PatchPlan>& plans = plan_all.patches;
+  plans.resize(np);
   uint64_t next_vertex = layout.end, next_slot = 0;
   for (size_t p = 0; p < np; ++p) {
     PatchPlan& plan = plans[p];
@@ -89,143 +96,171 @@ Tessellation tessellate_uniform(const Model& model, const Topology& topology, co
     // A cell polygon with V vertices gives V - 2 fan triangles (V around a centre vertex).
     next_slot += 2ull * static_cast<uint64_t>(plan.n) * static_cast<uint64_t>(plan.n) + extra + (plan.centre ? 2 : 0);
   }
-  if (next_vertex > UINT32_MAX) throw InputError("the tessellation needs more than 2^32 vertices; lower the level");
-  // The slots and the final triangle arrays live together at the end.
-  budget::check_memory(tessellation_bytes(2.0 * double(next_slot), double(next_vertex)), "the uniform tessellation",
-                       "lower the level or raise --max-memory");
+  plan_all.vertices = next_vertex;
+  plan_all.slots = next_slot;
+  return plan_all;
+}
 
-  Tessellation out;
-  out.positions.resize(next_vertex);
-  if (params.normals) out.normals.resize(next_vertex);
-  if (params.surface_data) out.surface_points.resize(next_vertex);
-  fill_boundary(model, topology, layout, out);
+// One patch in the per-patch pass: what it reads and where it writes.
+struct PatchPass {
+  const BezierPatch& patch;
+  uint32_t pid;
+  const PatchPlan& plan;
+  const BoundaryLayout& layout;
+  const Topology& topology;
+  const UniformParams& params;
+  Tessellation& out;
 
-  std::vector<Triangle> slots(next_slot);
-  std::vector<std::array<Vec2, 3>> slot_uv(params.surface_data ? next_slot : 0);
-  constexpr uint32_t kSkip = UINT32_MAX;
-
-  tbb::parallel_for(size_t{0}, np, [&](size_t p) {
-    budget::check("the uniform tessellation");
-    const BezierPatch& patch = model.patches[p];
-    const uint32_t pid = static_cast<uint32_t>(p);
-    const PatchPlan& plan = plans[p];
+  // Grid point (a, b) of the patch's own n x n grid.
+  uint32_t vertex(int a, int b) const {
     const int n = plan.n;
-    const double nd = static_cast<double>(n);
     const int* ratio = plan.ratio;
-    // Grid point (a, b) of the patch's own n x n grid.
-    auto vertex = [&](int a, int b) -> uint32_t {
-      if (a == 0) return side_vertex(layout, topology, pid, Side::kU0, b * ratio[0]);
-      if (a == n) return side_vertex(layout, topology, pid, Side::kU1, b * ratio[1]);
-      if (b == 0) return side_vertex(layout, topology, pid, Side::kV0, a * ratio[2]);
-      if (b == n) return side_vertex(layout, topology, pid, Side::kV1, a * ratio[3]);
-      return static_cast<uint32_t>(plan.interior_base + static_cast<uint64_t>(a - 1) * (n - 1) + (b - 1));
-    };
-    auto store_vertex = [&](uint32_t id, const SurfacePointEval& e, double u, double v) {
-      out.positions[id] = e.position;
-      if (params.normals) {
-        const Vec3 cr = glm::cross(e.du, e.dv);
-        const double len = glm::length(cr);
-        out.normals[id] = (len > 0.0 && std::isfinite(len)) ? cr / len : surface_normal(patch, u, v);
-      }
-      if (params.surface_data) out.surface_points[id] = {pid, u, v};
-    };
+    if (a == 0) return side_vertex(layout, topology, pid, Side::kU0, b * ratio[0]);
+    if (a == n) return side_vertex(layout, topology, pid, Side::kU1, b * ratio[1]);
+    if (b == 0) return side_vertex(layout, topology, pid, Side::kV0, a * ratio[2]);
+    if (b == n) return side_vertex(layout, topology, pid, Side::kV1, a * ratio[3]);
+    return static_cast<uint32_t>(plan.interior_base + static_cast<uint64_t>(a - 1) * (n - 1) + (b - 1));
+  }
+  void store_vertex(uint32_t id, const SurfacePointEval& e, double u, double v) const {
+    out.positions[id] = e.position;
+    if (params.normals) {
+      const Vec3 cr = glm::cross(e.du, e.dv);
+      const double len = glm::length(cr);
+      out.normals[id] = (len > 0.0 && std::isfinite(len)) ? cr / len : surface_normal(patch, u, v);
+    }
+    if (params.surface_data) out.surface_points[id] = {pid, u, v};
+  }
+};
 
-    // Interior samples: the matrix form, one u-contraction per grid row.
-    if (n > 1) {
-      const PatchEvaluator eval(patch);
-      const int du = patch.degree_u, dv = patch.degree_v;
-      std::vector<double> bv(static_cast<size_t>((n + 1) * (dv + 1))), dbv(bv.size());
+// Interior samples: the matrix form, one u-contraction per grid row; then the centre vertex of a
+// single refined cell.
+void sample_interior(const PatchPass& pp) {
+  const BezierPatch& patch = pp.patch;
+  const int n = pp.plan.n;
+  if (n > 1) {
+    const PatchEvaluator eval(patch);
+    const int du = patch.degree_u, dv = patch.degree_v;
+    std::vector<double> bv(static_cast<size_t>((n + 1) * (dv + 1))), dbv(bv.size());
+    for (int b = 1; b < n; ++b) {
+      eval.basis_row(dv, static_cast<double>(b) / n, &bv[static_cast<size_t>(b * (dv + 1))],
+                     &dbv[static_cast<size_t>(b * (dv + 1))]);
+    }
+    double a_row[kMaxDegree + 1], da_row[kMaxDegree + 1];
+    std::array<double, 4> row[kMaxDegree + 1], drow[kMaxDegree + 1];
+    for (int a = 1; a < n; ++a) {
+      const double u = static_cast<double>(a) / n;
+      eval.basis_row(du, u, a_row, da_row);
+      eval.contract_u(a_row, da_row, row, drow);
       for (int b = 1; b < n; ++b) {
-        eval.basis_row(dv, static_cast<double>(b) / n, &bv[static_cast<size_t>(b * (dv + 1))],
-                       &dbv[static_cast<size_t>(b * (dv + 1))]);
-      }
-      double a_row[kMaxDegree + 1], da_row[kMaxDegree + 1];
-      std::array<double, 4> row[kMaxDegree + 1], drow[kMaxDegree + 1];
-      for (int a = 1; a < n; ++a) {
-        const double u = static_cast<double>(a) / n;
-        eval.basis_row(du, u, a_row, da_row);
-        eval.contract_u(a_row, da_row, row, drow);
-        for (int b = 1; b < n; ++b) {
-          const SurfacePointEval e = eval.finish(row, drow, &bv[static_cast<size_t>(b * (dv + 1))],
-                                                 &dbv[static_cast<size_t>(b * (dv + 1))]);
-          store_vertex(vertex(a, b), e, u, static_cast<double>(b) / n);
-        }
+        const SurfacePointEval e =
+            eval.finish(row, drow, &bv[static_cast<size_t>(b * (dv + 1))], &dbv[static_cast<size_t>(b * (dv + 1))]);
+        pp.store_vertex(pp.vertex(a, b), e, u, static_cast<double>(b) / n);
       }
     }
-    const uint32_t centre_id = static_cast<uint32_t>(plan.interior_base);
-    if (plan.centre) store_vertex(centre_id, PatchEvaluator(patch).evaluate(0.5, 0.5), 0.5, 0.5);
+  }
+  const uint32_t centre_id = static_cast<uint32_t>(pp.plan.interior_base);
+  if (pp.plan.centre) pp.store_vertex(centre_id, PatchEvaluator(patch).evaluate(0.5, 0.5), 0.5, 0.5);
+}
 
-    Triangle* t = &slots[plan.slot_base];
-    std::array<Vec2, 3>* tuv = params.surface_data ? &slot_uv[plan.slot_base] : nullptr;
-    auto emit = [&](uint32_t i0, uint32_t i1, uint32_t i2, const Vec2& q0, const Vec2& q1, const Vec2& q2) {
-      *t++ = (i0 == i1 || i1 == i2 || i0 == i2) ? Triangle{kSkip, 0, 0} : Triangle{i0, i1, i2};
-      if (tuv) *tuv++ = {q0, q1, q2};
-    };
-    struct Corner {
-      uint32_t id;
-      Vec2 uv;
-      bool inside;  // strictly inside the patch's parameter square
-    };
-    std::vector<Corner> polygon;
-    for (int a = 0; a < n; ++a) {
-      for (int b = 0; b < n; ++b) {
-        const Vec2 uv00(a / nd, b / nd), uv10((a + 1) / nd, b / nd), uv01(a / nd, (b + 1) / nd),
-            uv11((a + 1) / nd, (b + 1) / nd);
-        const bool refined = (a == 0 && ratio[0] > 1) || (a == n - 1 && ratio[1] > 1) ||
-                             (b == 0 && ratio[2] > 1) || (b == n - 1 && ratio[3] > 1);
-        const uint32_t v00 = vertex(a, b), v10 = vertex(a + 1, b), v01 = vertex(a, b + 1), v11 = vertex(a + 1, b + 1);
-        if (!refined) {  // two triangles, oriented like the (u, v) square
-          emit(v00, v10, v11, uv00, uv10, uv11);
-          emit(v00, v11, v01, uv00, uv11, uv01);
-          continue;
-        }
-        // The cell's boundary counter-clockwise in (u, v): v00 -> v10 -> v11 -> v01, with the side
-        // samples that fall strictly inside a cell edge lying on a refined patch side.
-        polygon.clear();
-        auto corner = [&](int ca, int cb, uint32_t id, const Vec2& uv) {
-          polygon.push_back({id, uv, ca > 0 && ca < n && cb > 0 && cb < n});
-        };
-        auto side_samples = [&](Side side, int cell, bool forward) {
-          const int r = ratio[static_cast<int>(side)];
-          const double count = static_cast<double>(r) * n;
-          for (int s = 1; s < r; ++s) {
-            const int k = cell * r + (forward ? s : r - s);
-            polygon.push_back({side_vertex(layout, topology, pid, side, k), side_uv(side, k / count), false});
-          }
-        };
-        corner(a, b, v00, uv00);
-        if (b == 0) side_samples(Side::kV0, a, true);
-        corner(a + 1, b, v10, uv10);
-        if (a + 1 == n) side_samples(Side::kU1, b, true);
-        corner(a + 1, b + 1, v11, uv11);
-        if (b + 1 == n) side_samples(Side::kV1, a, false);
-        corner(a, b + 1, v01, uv01);
-        if (a == 0) side_samples(Side::kU0, b, false);
-        const size_t count = polygon.size();
-        if (plan.centre) {  // single cell: fan around the centre vertex
-          for (size_t i = 0; i < count; ++i) {
-            const Corner& p0 = polygon[i];
-            const Corner& p1 = polygon[(i + 1) % count];
-            emit(centre_id, p0.id, p1.id, Vec2(0.5, 0.5), p0.uv, p1.uv);
-          }
-          continue;
-        }
-        // Fan from the corner inside the patch: it touches no refined side, so no fan triangle is flat.
-        size_t apex = 0;
-        while (!polygon[apex].inside) ++apex;
-        for (size_t i = 1; i + 1 < count; ++i) {
-          const Corner& c0 = polygon[apex];
-          const Corner& p0 = polygon[(apex + i) % count];
-          const Corner& p1 = polygon[(apex + i + 1) % count];
-          emit(c0.id, p0.id, p1.id, c0.uv, p0.uv, p1.uv);
-        }
-      }
+// Writes a patch's triangles into its slots, in order; a triangle repeating a vertex is marked kSkip.
+struct SlotWriter {
+  Triangle* t;
+  std::array<Vec2, 3>* tuv;  // null without surface data
+  void emit(uint32_t i0, uint32_t i1, uint32_t i2, const Vec2& q0, const Vec2& q1, const Vec2& q2) {
+    *t++ = (i0 == i1 || i1 == i2 || i0 == i2) ? Triangle{kSkip, 0, 0} : Triangle{i0, i1, i2};
+    if (tuv) *tuv++ = {q0, q1, q2};
+  }
+};
+
+struct Corner {
+  uint32_t id;
+  Vec2 uv;
+  bool inside;  // strictly inside the patch's parameter square
+};
+
+// A refined border cell (a, b): its boundary counter-clockwise in (u, v), v00 -> v10 -> v11 -> v01,
+// with the side samples that fall strictly inside a cell edge lying on a refined patch side, as a
+// fan around the centre vertex (single cell) or from its corner inside the patch.
+void fan_refined_cell(const PatchPass& pp, int a, int b, std::vector<Corner>& polygon, SlotWriter& w) {
+  const int n = pp.plan.n;
+  const double nd = static_cast<double>(n);
+  const int* ratio = pp.plan.ratio;
+  const Vec2 uv00(a / nd, b / nd), uv10((a + 1) / nd, b / nd), uv01(a / nd, (b + 1) / nd),
+      uv11((a + 1) / nd, (b + 1) / nd);
+  const uint32_t v00 = pp.vertex(a, b), v10 = pp.vertex(a + 1, b), v01 = pp.vertex(a, b + 1),
+                 v11 = pp.vertex(a + 1, b + 1);
+  polygon.clear();
+  auto corner = [&](int ca, int cb, uint32_t id, const Vec2& uv) {
+    polygon.push_back({id, uv, ca > 0 && ca < n && cb > 0 && cb < n});
+  };
+  auto side_samples = [&](Side side, int cell, bool forward) {
+    const int r = ratio[static_cast<int>(side)];
+    const double count = static_cast<double>(r) * n;
+    for (int s = 1; s < r; ++s) {
+      const int k = cell * r + (forward ? s : r - s);
+      polygon.push_back({side_vertex(pp.layout, pp.topology, pp.pid, side, k), side_uv(side, k / count), false});
     }
-  });
+  };
+  corner(a, b, v00, uv00);
+  if (b == 0) side_samples(Side::kV0, a, true);
+  corner(a + 1, b, v10, uv10);
+  if (a + 1 == n) side_samples(Side::kU1, b, true);
+  corner(a + 1, b + 1, v11, uv11);
+  if (b + 1 == n) side_samples(Side::kV1, a, false);
+  corner(a, b + 1, v01, uv01);
+  if (a == 0) side_samples(Side::kU0, b, false);
+  const size_t count = polygon.size();
+  if (pp.plan.centre) {  // single cell: fan around the centre vertex
+    const uint32_t centre_id = static_cast<uint32_t>(pp.plan.interior_base);
+    for (size_t i = 0; i < count; ++i) {
+      const Corner& p0 = polygon[i];
+      const Corner& p1 = polygon[(i + 1) % count];
+      w.emit(centre_id, p0.id, p1.id, Vec2(0.5, 0.5), p0.uv, p1.uv);
+    }
+    return;
+  }
+  // Fan from the corner inside the patch: it touches no refined side, so no fan triangle is flat.
+  size_t apex = 0;
+  while (!polygon[apex].inside) ++apex;
+  for (size_t i = 1; i + 1 < count; ++i) {
+    const Corner& c0 = polygon[apex];
+    const Corner& p0 = polygon[(apex + i) % count];
+    const Corner& p1 = polygon[(apex + i + 1) % count];
+    w.emit(c0.id, p0.id, p1.id, c0.uv, p0.uv, p1.uv);
+  }
+}
 
-  // Compact in patch order, so the output is independent of scheduling.
+// The triangles of every cell of the patch's grid, in cell order, into its slots.
+void triangulate_cells(const PatchPass& pp, SlotWriter& w) {
+  const int n = pp.plan.n;
+  const double nd = static_cast<double>(n);
+  const int* ratio = pp.plan.ratio;
+  std::vector<Corner> polygon;
+  for (int a = 0; a < n; ++a) {
+    for (int b = 0; b < n; ++b) {
+      const bool refined = (a == 0 && ratio[0] > 1) || (a == n - 1 && ratio[1] > 1) || (b == 0 && ratio[2] > 1) ||
+                           (b == n - 1 && ratio[3] > 1);
+      if (refined) {
+        fan_refined_cell(pp, a, b, polygon, w);
+        continue;
+      }
+      // two triangles, oriented like the (u, v) square
+      const Vec2 uv00(a / nd, b / nd), uv10((a + 1) / nd, b / nd), uv01(a / nd, (b + 1) / nd),
+          uv11((a + 1) / nd, (b + 1) / nd);
+      const uint32_t v00 = pp.vertex(a, b), v10 = pp.vertex(a + 1, b), v01 = pp.vertex(a, b + 1),
+                     v11 = pp.vertex(a + 1, b + 1);
+      w.emit(v00, v10, v11, uv00, uv10, uv11);
+      w.emit(v00, v11, v01, uv00, uv11, uv01);
+    }
+  }
+}
+
+// Compact in patch order, so the output is independent of scheduling.
+void compact(const std::vector<PatchPlan>& plans, const std::vector<Triangle>& slots,
+             const std::vector<std::array<Vec2, 3>>& slot_uv, bool surface_data, Tessellation& out) {
+  const size_t np = plans.size();
   out.triangles.reserve(slots.size());
-  if (params.surface_data) {
+  if (surface_data) {
     out.triangle_patch.reserve(slots.size());
     out.triangle_uv.reserve(slots.size());
   }
@@ -237,11 +272,52 @@ Tessellation tessellate_uniform(const Model& model, const Topology& topology, co
       continue;
     }
     out.triangles.push_back(slots[s]);
-    if (params.surface_data) {
+    if (surface_data) {
       out.triangle_patch.push_back(static_cast<uint32_t>(patch));
       out.triangle_uv.push_back(slot_uv[s]);
     }
   }
+}
+
+}  // namespace
+
+Tessellation tessellate_uniform(const Model& model, const Topology& topology, const UniformParams& params) {
+  const size_t np = model.patches.size();
+  const std::vector<int> own = own_segments(np, params);
+  // A boundary curve takes the finest grid among the patches using it (levels nest, so every
+  // user's own segment count divides it).
+  const BoundaryLayout layout = layout_boundary(
+      topology,
+      [&](size_t e) {
+        int n = 1;
+        for (const SideRef& use : topology.edges[e].uses) n = std::max(n, own[use.patch]);
+        return n;
+      },
+      0);
+  const Plan plan = plan_patches(topology, layout, own);
+  if (plan.vertices > UINT32_MAX) throw InputError("the tessellation needs more than 2^32 vertices; lower the level");
+  // The slots and the final triangle arrays live together at the end.
+  budget::check_memory(tessellation_bytes(2.0 * double(plan.slots), double(plan.vertices)), "the uniform tessellation",
+                       "lower the level or raise --max-memory");
+
+  Tessellation out;
+  out.positions.resize(plan.vertices);
+  if (params.normals) out.normals.resize(plan.vertices);
+  if (params.surface_data) out.surface_points.resize(plan.vertices);
+  fill_boundary(model, topology, layout, out);
+
+  std::vector<Triangle> slots(plan.slots);
+  std::vector<std::array<Vec2, 3>> slot_uv(params.surface_data ? plan.slots : 0);
+  tbb::parallel_for(size_t{0}, np, [&](size_t p) {
+    budget::check("the uniform tessellation");
+    const PatchPlan& pplan = plan.patches[p];
+    const PatchPass pp{model.patches[p], static_cast<uint32_t>(p), pplan, layout, topology, params, out};
+    sample_interior(pp);
+    SlotWriter w{&slots[pplan.slot_base], params.surface_data ? &slot_uv[pplan.slot_base] : nullptr};
+    triangulate_cells(pp, w);
+  });
+
+  compact(plan.patches, slots, slot_uv, params.surface_data, out);
   return out;
 }
 
