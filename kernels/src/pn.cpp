@@ -343,27 +343,10 @@ struct EdgeInfo {
   std::vector<std::pair<uint32_t, int>> tri_sides;  // (triangle, side)
 };
 
-}  // namespace
-
-uint64_t pn_triangles_per_input(const PnParams& params) {
-  // The integer pattern is counted, not built: at K = 4096 it would allocate ~0.4 GiB just to size
-  // the output. Fractional_odd patterns (factor <= 63) are small enough to build.
-  if (params.pattern == PnPatternKind::kInteger) {
-    const uint64_t k = static_cast<uint64_t>(integer_segments(params));
-    return k * k;
-  }
-  return make_pattern(params).triangles.size();
-}
-
-Tessellation tessellate_pn(const Tessellation& base, const PnParams& params, PnStats* stats_out) {
-  const TrianglePattern pattern = make_pattern(params);
-  const std::vector<double> t_edge = edge_params(params);
-  const int segments = static_cast<int>(t_edge.size()) - 1;
-  const bool aen = params.variant == PnVariant::kAen;
-  PnStats stats;
-  stats.segments_per_edge = segments;
-  stats.input_triangles = base.triangles.size();
-
+// Unit normals of the input vertices: the mesh's own, normalised, or angle-weighted ones when it has
+// none. Throws InputError for an out-of-range vertex index, a non-finite position, or a zero /
+// non-finite normal.
+std::vector<Vec3> input_normals(const Tessellation& base) {
   const size_t nv = base.positions.size();
   for (const Triangle& t : base.triangles) {
     for (uint32_t v : t) {
@@ -387,53 +370,88 @@ Tessellation tessellate_pn(const Tessellation& base, const PnParams& params, PnS
       normals[v] = base.normals[v] / len;
     }
   }
+  return normals;
+}
 
-  // Vertex classes: (position, normal) for basic, position for AEN.
+// What every stage reads: the input mesh, its unit normals, the variant and the edge samples.
+struct PnInput {
+  const Tessellation& base;
+  const std::vector<Vec3>& normals;
+  bool aen;
+  const std::vector<double>& t_edge;  // the pattern's edge parameters, 0..1
+  int segments;                       // t_edge.size() - 1
+};
+
+// Vertex classes: (position, normal) for basic, position for AEN; each becomes one output vertex.
+struct Classes {
+  std::vector<uint32_t> class_of;  // per input vertex
+  std::vector<Key> key;
+  std::vector<uint32_t> vertex;  // first input vertex of the class
+  std::vector<Vec3> normal;      // AEN: the normalised sum over the class; basic: the first vertex's
+};
+
+Classes vertex_classes(const PnInput& in) {
+  const Tessellation& base = in.base;
+  const std::vector<Vec3>& normals = in.normals;
+  const size_t nv = base.positions.size();
   auto key_of = [&](uint32_t v, bool with_normal) {
     const Vec3& p = base.positions[v];
     const Vec3 n = with_normal ? normals[v] : Vec3(0.0);
     return Key{p.x + 0.0, p.y + 0.0, p.z + 0.0, n.x + 0.0, n.y + 0.0, n.z + 0.0};
   };
+  Classes cl;
   std::unordered_map<Key, uint32_t, KeyHash> class_of_key;
-  std::vector<uint32_t> class_of(nv);
-  std::vector<Key> class_key;
-  std::vector<uint32_t> class_vertex;  // first input vertex of the class
+  cl.class_of.resize(nv);
   for (uint32_t v = 0; v < nv; ++v) {
-    const Key k = key_of(v, !aen);
-    const auto [it, inserted] = class_of_key.emplace(k, static_cast<uint32_t>(class_key.size()));
+    const Key k = key_of(v, !in.aen);
+    const auto [it, inserted] = class_of_key.emplace(k, static_cast<uint32_t>(cl.key.size()));
     if (inserted) {
-      class_key.push_back(k);
-      class_vertex.push_back(v);
+      cl.key.push_back(k);
+      cl.vertex.push_back(v);
     }
-    class_of[v] = it->second;
+    cl.class_of[v] = it->second;
   }
-  const size_t nc = class_key.size();
-  std::vector<Vec3> class_normal(nc, Vec3(0.0));
-  if (aen) {
-    for (uint32_t v = 0; v < nv; ++v) class_normal[class_of[v]] += normals[v];
-    for (size_t c = 0; c < nc; ++c) class_normal[c] = normalized_or(class_normal[c], normals[class_vertex[c]]);
+  const size_t nc = cl.key.size();
+  cl.normal.assign(nc, Vec3(0.0));
+  if (in.aen) {
+    for (uint32_t v = 0; v < nv; ++v) cl.normal[cl.class_of[v]] += normals[v];
+    for (size_t c = 0; c < nc; ++c) cl.normal[c] = normalized_or(cl.normal[c], normals[cl.vertex[c]]);
   } else {
-    for (size_t c = 0; c < nc; ++c) class_normal[c] = normals[class_vertex[c]];
+    for (size_t c = 0; c < nc; ++c) cl.normal[c] = normals[cl.vertex[c]];
   }
+  return cl;
+}
 
-  // Edges.
-  const size_t nt = base.triangles.size();
-  std::vector<uint8_t> skipped(nt, 0);
-  std::vector<std::array<int32_t, 3>> tri_edge(nt, {-1, -1, -1});
-  std::vector<std::array<bool, 3>> tri_reversed(nt, {false, false, false});
-  std::unordered_map<uint64_t, uint32_t> edge_of;
+// The matched edges and, per input triangle, its sides' edges; a triangle with two vertices in one
+// class is skipped.
+struct Edges {
+  std::vector<uint8_t> skipped;
+  std::vector<std::array<int32_t, 3>> tri_edge;
+  std::vector<std::array<bool, 3>> tri_reversed;  // the side runs against its edge's canonical direction
   std::vector<EdgeInfo> edges;
+};
+
+Edges match_edges(const PnInput& in, const Classes& cl, PnStats& stats) {
+  const Tessellation& base = in.base;
+  const std::vector<Vec3>& normals = in.normals;
+  const size_t nt = base.triangles.size();
+  Edges ed;
+  ed.skipped.assign(nt, 0);
+  ed.tri_edge.assign(nt, {-1, -1, -1});
+  ed.tri_reversed.assign(nt, {false, false, false});
+  std::unordered_map<uint64_t, uint32_t> edge_of;
+  std::vector<EdgeInfo>& edges = ed.edges;
   for (size_t t = 0; t < nt; ++t) {
     const Triangle& tri = base.triangles[t];
-    const std::array<uint32_t, 3> c = {class_of[tri[0]], class_of[tri[1]], class_of[tri[2]]};
+    const std::array<uint32_t, 3> c = {cl.class_of[tri[0]], cl.class_of[tri[1]], cl.class_of[tri[2]]};
     if (c[0] == c[1] || c[1] == c[2] || c[0] == c[2]) {
-      skipped[t] = 1;
+      ed.skipped[t] = 1;
       ++stats.skipped_triangles;
       continue;
     }
     for (int s = 0; s < 3; ++s) {
       const uint32_t a = c[s], b = c[(s + 1) % 3];
-      const bool reversed = class_key[b] < class_key[a];
+      const bool reversed = cl.key[b] < cl.key[a];
       const uint32_t lo = reversed ? b : a, hi = reversed ? a : b;
       const uint64_t ek = (static_cast<uint64_t>(lo) << 32) | hi;
       const auto [it, inserted] = edge_of.emplace(ek, static_cast<uint32_t>(edges.size()));
@@ -445,22 +463,28 @@ Tessellation tessellate_pn(const Tessellation& base, const PnParams& params, PnS
       }
       EdgeInfo& e = edges[it->second];
       e.tri_sides.emplace_back(static_cast<uint32_t>(t), s);
-      tri_edge[t][s] = static_cast<int32_t>(it->second);
-      tri_reversed[t][s] = reversed;
-      if (aen) {
+      ed.tri_edge[t][s] = static_cast<int32_t>(it->second);
+      ed.tri_reversed[t][s] = reversed;
+      if (in.aen) {
         const uint32_t va = tri[reversed ? (s + 1) % 3 : s], vb = tri[reversed ? s : (s + 1) % 3];
         e.uses.push_back(pn_edge(base.positions[va], normals[va], base.positions[vb], normals[vb]));
       }
     }
   }
   stats.edges = edges.size();
+  return ed;
+}
 
+// Every edge's geometry from its classes; PN-AEN averages the edge control points over the adjacent
+// triangles.
+void edge_geometry(const PnInput& in, const Classes& cl, std::vector<EdgeInfo>& edges) {
+  const Tessellation& base = in.base;
   tbb::parallel_for(size_t{0}, edges.size(), [&](size_t ei) {
     EdgeInfo& e = edges[ei];
-    const Vec3& p0 = base.positions[class_vertex[e.start]];
-    const Vec3& p1 = base.positions[class_vertex[e.end]];
-    if (!aen) {
-      e.geometry = pn_edge(p0, class_normal[e.start], p1, class_normal[e.end]);
+    const Vec3& p0 = base.positions[cl.vertex[e.start]];
+    const Vec3& p1 = base.positions[cl.vertex[e.end]];
+    if (!in.aen) {
+      e.geometry = pn_edge(p0, cl.normal[e.start], p1, cl.normal[e.end]);
       return;
     }
     // PN-AEN: average the edge control points over the adjacent triangles.
@@ -470,52 +494,66 @@ Tessellation tessellate_pn(const Tessellation& base, const PnParams& params, PnS
       c1 += u.c1;
     }
     const double m = static_cast<double>(e.uses.size());
-    e.geometry = pn_edge(p0, class_normal[e.start], p1, class_normal[e.end]);
+    e.geometry = pn_edge(p0, cl.normal[e.start], p1, cl.normal[e.end]);
     e.geometry.c0 = c0 / m;
     e.geometry.c1 = c1 / m;
   });
+}
 
-  // Output layout: classes, then N - 1 samples per edge, then pattern interiors per triangle.
-  std::vector<int> role(pattern.vertices.size(), -1);  // -1 interior; else side * (N + 1) + q
-  for (int s = 0; s < 3; ++s) {
-    for (size_t q = 0; q < pattern.side[s].size(); ++q) role[pattern.side[s][q]] = s * (segments + 1) + static_cast<int>(q);
-  }
-  std::vector<uint32_t> interior_local(pattern.vertices.size(), 0);
+// Output layout: classes, then N - 1 samples per edge, then pattern interiors per triangle.
+struct OutputLayout {
+  std::vector<int> role;                 // per pattern vertex: -1 interior; else side * (N + 1) + q
+  std::vector<uint32_t> interior_local;  // per interior pattern vertex: its index among the interior ones
   uint32_t interior_count = 0;
+  uint64_t edge_base = 0, interior_base = 0, total = 0;
+};
+
+// Throws InputError when the output needs more than 2^32 vertices; checks the memory budget.
+OutputLayout layout_output(const TrianglePattern& pattern, int segments, size_t nc, size_t n_edges, size_t nt) {
+  OutputLayout lo;
+  lo.role.assign(pattern.vertices.size(), -1);
+  for (int s = 0; s < 3; ++s) {
+    for (size_t q = 0; q < pattern.side[s].size(); ++q) {
+      lo.role[pattern.side[s][q]] = s * (segments + 1) + static_cast<int>(q);
+    }
+  }
+  lo.interior_local.assign(pattern.vertices.size(), 0);
   for (size_t v = 0; v < pattern.vertices.size(); ++v) {
-    if (role[v] < 0) interior_local[v] = interior_count++;
+    if (lo.role[v] < 0) lo.interior_local[v] = lo.interior_count++;
   }
-  const uint64_t edge_base = nc;
-  const uint64_t interior_base = edge_base + static_cast<uint64_t>(edges.size()) * static_cast<uint64_t>(segments - 1);
-  const uint64_t total = interior_base + static_cast<uint64_t>(nt) * interior_count;
-  if (total > UINT32_MAX) throw InputError("the PN tessellation needs more than 2^32 vertices; lower --level");
-  budget::check_memory(tessellation_bytes(2.0 * double(nt) * double(pattern.triangles.size()), double(total)),
+  lo.edge_base = nc;
+  lo.interior_base = lo.edge_base + static_cast<uint64_t>(n_edges) * static_cast<uint64_t>(segments - 1);
+  lo.total = lo.interior_base + static_cast<uint64_t>(nt) * lo.interior_count;
+  if (lo.total > UINT32_MAX) throw InputError("the PN tessellation needs more than 2^32 vertices; lower --level");
+  budget::check_memory(tessellation_bytes(2.0 * double(nt) * double(pattern.triangles.size()), double(lo.total)),
                        "the PN tessellation", "lower --level or raise --max-memory");
+  return lo;
+}
 
-  const bool uv_out = base.has_surface() && base.triangle_patch.size() == nt && base.triangle_uv.size() == nt;
-  const bool sp_out = uv_out && base.surface_points.size() == nv;
-  Tessellation out;
-  out.positions.resize(total);
-  out.normals.resize(total);
-  if (sp_out) out.surface_points.resize(total);
+// The output's (u, v) at barycentric point b of input triangle t.
+Vec2 interpolate_uv(const Tessellation& base, size_t t, const Bary& b) {
+  const auto& uv = base.triangle_uv[t];
+  return b[0] * uv[0] + b[1] * uv[1] + b[2] * uv[2];
+}
 
-  auto interpolate_uv = [&](size_t t, const Bary& b) {
-    const auto& uv = base.triangle_uv[t];
-    return b[0] * uv[0] + b[1] * uv[1] + b[2] * uv[2];
-  };
-
-  for (size_t c = 0; c < nc; ++c) {
-    out.positions[c] = base.positions[class_vertex[c]];
-    out.normals[c] = class_normal[c];
-    if (sp_out) out.surface_points[c] = base.surface_points[class_vertex[c]];
+// The shared output vertices: one per class, then the N - 1 samples of every edge (surface points,
+// when `sp_out`, recorded from the first triangle using the edge).
+void write_shared_vertices(const PnInput& in, const Classes& cl, const Edges& ed, const OutputLayout& lo, bool sp_out,
+                           Tessellation& out) {
+  const Tessellation& base = in.base;
+  const int segments = in.segments;
+  for (size_t c = 0; c < cl.key.size(); ++c) {
+    out.positions[c] = base.positions[cl.vertex[c]];
+    out.normals[c] = cl.normal[c];
+    if (sp_out) out.surface_points[c] = base.surface_points[cl.vertex[c]];
   }
-  tbb::parallel_for(size_t{0}, edges.size(), [&](size_t ei) {
-    const EdgeInfo& e = edges[ei];
+  tbb::parallel_for(size_t{0}, ed.edges.size(), [&](size_t ei) {
+    const EdgeInfo& e = ed.edges[ei];
     for (int q = 1; q < segments; ++q) {
-      const double t = t_edge[static_cast<size_t>(q)];
-      const uint64_t id = edge_base + ei * static_cast<uint64_t>(segments - 1) + static_cast<uint64_t>(q - 1);
+      const double t = in.t_edge[static_cast<size_t>(q)];
+      const uint64_t id = lo.edge_base + ei * static_cast<uint64_t>(segments - 1) + static_cast<uint64_t>(q - 1);
       out.positions[id] = pn_edge_position(e.geometry, t);
-      if (aen) {
+      if (in.aen) {
         Vec3 n(0.0);
         for (const PnEdge& u : e.uses) n += pn_edge_normal(u, t);
         out.normals[id] = normalized_or(n, pn_edge_normal(e.geometry, t));
@@ -525,70 +563,86 @@ Tessellation tessellate_pn(const Tessellation& base, const PnParams& params, PnS
       if (sp_out) {
         // Recorded from the first triangle using the edge.
         const auto [tri, side] = e.tri_sides.front();
-        const bool reversed = tri_reversed[tri][side];
+        const bool reversed = ed.tri_reversed[tri][side];
         Bary b(0.0);
         const double along = reversed ? 1.0 - t : t;
         b[(side + 1) % 3] = along;
         b[side] = 1.0 - along;
-        const Vec2 uv = interpolate_uv(tri, b);
+        const Vec2 uv = interpolate_uv(base, tri, b);
         out.surface_points[id] = {base.triangle_patch[tri], uv.x, uv.y};
       }
     }
   });
+}
 
+// The PN triangle of input triangle t: basic takes its own vertices' normals; AEN the averaged edge
+// geometry in each side's direction, with this triangle's own normals for shading.
+PnTriangle triangle_geometry(const PnInput& in, const Edges& ed, size_t t) {
+  const Tessellation& base = in.base;
+  const std::vector<Vec3>& normals = in.normals;
+  const Triangle& tri = base.triangles[t];
+  std::array<PnEdge, 3> side_edges;
+  for (int s = 0; s < 3; ++s) {
+    const uint32_t va = tri[s], vb = tri[(s + 1) % 3];
+    if (!in.aen) {
+      side_edges[s] = pn_edge(base.positions[va], normals[va], base.positions[vb], normals[vb]);
+    } else {
+      // Averaged geometry in this side's direction; this triangle's own normals for shading.
+      const EdgeInfo& e = ed.edges[static_cast<size_t>(ed.tri_edge[t][s])];
+      PnEdge own = pn_edge(base.positions[va], normals[va], base.positions[vb], normals[vb]);
+      const bool rev = ed.tri_reversed[t][s];
+      own.c0 = rev ? e.geometry.c1 : e.geometry.c0;
+      own.c1 = rev ? e.geometry.c0 : e.geometry.c1;
+      side_edges[s] = own;
+    }
+  }
+  return pn_triangle(side_edges);
+}
+
+// One input triangle: its pattern's interior vertices written to `out`, its pattern triangles (with
+// output ids: shared class and edge vertices on its sides) written to `slots`.
+void tessellate_triangle(const PnInput& in, const Classes& cl, const Edges& ed, const TrianglePattern& pattern,
+                         const OutputLayout& lo, bool sp_out, size_t t, Triangle* slots, Tessellation& out) {
+  const Tessellation& base = in.base;
+  const int segments = in.segments;
+  const Triangle& tri = base.triangles[t];
+  const PnTriangle pn = triangle_geometry(in, ed, t);
+  const uint64_t ibase = lo.interior_base + static_cast<uint64_t>(t) * lo.interior_count;
+  std::vector<uint32_t> ids(pattern.vertices.size());
+  for (size_t v = 0; v < pattern.vertices.size(); ++v) {
+    if (lo.role[v] < 0) {
+      const uint64_t id = ibase + lo.interior_local[v];
+      ids[v] = static_cast<uint32_t>(id);
+      out.positions[id] = pn_position(pn, pattern.vertices[v]);
+      out.normals[id] = pn_normal(pn, pattern.vertices[v]);
+      if (sp_out) {
+        const Vec2 uv = interpolate_uv(base, t, pattern.vertices[v]);
+        out.surface_points[id] = {base.triangle_patch[t], uv.x, uv.y};
+      }
+      continue;
+    }
+    const int s = lo.role[v] / (segments + 1), q = lo.role[v] % (segments + 1);
+    if (q == 0) {
+      ids[v] = cl.class_of[tri[s]];
+    } else if (q == segments) {
+      ids[v] = cl.class_of[tri[(s + 1) % 3]];
+    } else {
+      const int canonical_q = ed.tri_reversed[t][s] ? segments - q : q;
+      ids[v] = static_cast<uint32_t>(lo.edge_base + static_cast<uint64_t>(ed.tri_edge[t][s]) * (segments - 1) +
+                                     static_cast<uint64_t>(canonical_q - 1));
+    }
+  }
+  for (size_t k = 0; k < pattern.triangles.size(); ++k) {
+    const Triangle& pt = pattern.triangles[k];
+    slots[k] = {ids[pt[0]], ids[pt[1]], ids[pt[2]]};
+  }
+}
+
+// The slots in input order, skipped triangles counted as degenerate; (u, v) per triangle when `uv_out`.
+void compact(const Tessellation& base, const TrianglePattern& pattern, const std::vector<uint8_t>& skipped,
+             const std::vector<Triangle>& slots, bool uv_out, Tessellation& out) {
+  const size_t nt = base.triangles.size();
   const size_t per_tri = pattern.triangles.size();
-  std::vector<Triangle> slots(nt * per_tri);
-  tbb::parallel_for(size_t{0}, nt, [&](size_t t) {
-    if ((t & 1023u) == 0) budget::check("the PN tessellation");
-    if (skipped[t]) return;
-    const Triangle& tri = base.triangles[t];
-    std::array<PnEdge, 3> side_edges;
-    for (int s = 0; s < 3; ++s) {
-      const uint32_t va = tri[s], vb = tri[(s + 1) % 3];
-      if (!aen) {
-        side_edges[s] = pn_edge(base.positions[va], normals[va], base.positions[vb], normals[vb]);
-      } else {
-        // Averaged geometry in this side's direction; this triangle's own normals for shading.
-        const EdgeInfo& e = edges[static_cast<size_t>(tri_edge[t][s])];
-        PnEdge own = pn_edge(base.positions[va], normals[va], base.positions[vb], normals[vb]);
-        const bool rev = tri_reversed[t][s];
-        own.c0 = rev ? e.geometry.c1 : e.geometry.c0;
-        own.c1 = rev ? e.geometry.c0 : e.geometry.c1;
-        side_edges[s] = own;
-      }
-    }
-    const PnTriangle pn = pn_triangle(side_edges);
-    const uint64_t ibase = interior_base + static_cast<uint64_t>(t) * interior_count;
-    std::vector<uint32_t> ids(pattern.vertices.size());
-    for (size_t v = 0; v < pattern.vertices.size(); ++v) {
-      if (role[v] < 0) {
-        const uint64_t id = ibase + interior_local[v];
-        ids[v] = static_cast<uint32_t>(id);
-        out.positions[id] = pn_position(pn, pattern.vertices[v]);
-        out.normals[id] = pn_normal(pn, pattern.vertices[v]);
-        if (sp_out) {
-          const Vec2 uv = interpolate_uv(t, pattern.vertices[v]);
-          out.surface_points[id] = {base.triangle_patch[t], uv.x, uv.y};
-        }
-        continue;
-      }
-      const int s = role[v] / (segments + 1), q = role[v] % (segments + 1);
-      if (q == 0) {
-        ids[v] = class_of[tri[s]];
-      } else if (q == segments) {
-        ids[v] = class_of[tri[(s + 1) % 3]];
-      } else {
-        const int canonical_q = tri_reversed[t][s] ? segments - q : q;
-        ids[v] = static_cast<uint32_t>(edge_base + static_cast<uint64_t>(tri_edge[t][s]) * (segments - 1) +
-                                       static_cast<uint64_t>(canonical_q - 1));
-      }
-    }
-    for (size_t k = 0; k < per_tri; ++k) {
-      const Triangle& pt = pattern.triangles[k];
-      slots[t * per_tri + k] = {ids[pt[0]], ids[pt[1]], ids[pt[2]]};
-    }
-  });
-
   out.triangles.reserve(slots.size());
   if (uv_out) {
     out.triangle_patch.reserve(slots.size());
@@ -604,26 +658,30 @@ Tessellation tessellate_pn(const Tessellation& base, const PnParams& params, PnS
       if (uv_out) {
         const Triangle& pt = pattern.triangles[k];
         out.triangle_patch.push_back(base.triangle_patch[t]);
-        out.triangle_uv.push_back({interpolate_uv(t, pattern.vertices[pt[0]]), interpolate_uv(t, pattern.vertices[pt[1]]),
-                                   interpolate_uv(t, pattern.vertices[pt[2]])});
+        out.triangle_uv.push_back({interpolate_uv(base, t, pattern.vertices[pt[0]]),
+                                   interpolate_uv(base, t, pattern.vertices[pt[1]]),
+                                   interpolate_uv(base, t, pattern.vertices[pt[2]])});
       }
     }
   }
+}
 
-  // Open edges and cracks. An edge with one adjacent triangle leaves `segments` open output edges.
-  // Basic: group edges by their end positions; a group of several is a crease split by normals.
+// Open edges and cracks. An edge with one adjacent triangle leaves `segments` open output edges.
+// Basic: group edges by their end positions; a group of several is a crease split by normals.
+void count_cracks(const PnInput& in, const Classes& cl, const std::vector<EdgeInfo>& edges, PnStats& stats) {
+  const int segments = in.segments;
   std::map<std::array<double, 6>, std::vector<uint32_t>> by_position;
   for (size_t ei = 0; ei < edges.size(); ++ei) {
     const EdgeInfo& e = edges[ei];
     if (e.tri_sides.size() == 1) stats.open_edges += static_cast<size_t>(segments);
-    const Key& a = class_key[e.start];
-    const Key& b = class_key[e.end];
+    const Key& a = cl.key[e.start];
+    const Key& b = cl.key[e.end];
     std::array<double, 6> pk{a[0], a[1], a[2], b[0], b[1], b[2]};
     if (std::tie(b[0], b[1], b[2]) < std::tie(a[0], a[1], a[2])) pk = {b[0], b[1], b[2], a[0], a[1], a[2]};
     by_position[pk].push_back(static_cast<uint32_t>(ei));
   }
   for (const auto& [pk, group] : by_position) {
-    if (aen) {
+    if (in.aen) {
       // A crease here is an edge whose adjacent triangles disagree on the normals.
       const EdgeInfo& e = edges[group.front()];
       for (const PnEdge& u : e.uses) {
@@ -642,12 +700,60 @@ Tessellation tessellate_pn(const Tessellation& base, const PnParams& params, PnS
     // All edges of a group run the same way: positions differ, so the position decides the order.
     for (size_t g = 1; g < group.size(); ++g) {
       for (int q = 1; q < segments; ++q) {
-        const double t = t_edge[static_cast<size_t>(q)];
+        const double t = in.t_edge[static_cast<size_t>(q)];
         const double gap = glm::length(pn_edge_position(edges[group[0]].geometry, t) - pn_edge_position(edges[group[g]].geometry, t));
         stats.max_crack_gap = std::max(stats.max_crack_gap, gap);
       }
     }
   }
+}
+
+}  // namespace
+
+uint64_t pn_triangles_per_input(const PnParams& params) {
+  // The integer pattern is counted, not built: at K = 4096 it would allocate ~0.4 GiB just to size
+  // the output. Fractional_odd patterns (factor <= 63) are small enough to build.
+  if (params.pattern == PnPatternKind::kInteger) {
+    const uint64_t k = static_cast<uint64_t>(integer_segments(params));
+    return k * k;
+  }
+  return make_pattern(params).triangles.size();
+}
+
+Tessellation tessellate_pn(const Tessellation& base, const PnParams& params, PnStats* stats_out) {
+  const TrianglePattern pattern = make_pattern(params);
+  const std::vector<double> t_edge = edge_params(params);
+  const int segments = static_cast<int>(t_edge.size()) - 1;
+  PnStats stats;
+  stats.segments_per_edge = segments;
+  stats.input_triangles = base.triangles.size();
+  const std::vector<Vec3> normals = input_normals(base);
+  const PnInput in{base, normals, params.variant == PnVariant::kAen, t_edge, segments};
+
+  const Classes cl = vertex_classes(in);
+  Edges ed = match_edges(in, cl, stats);
+  edge_geometry(in, cl, ed.edges);
+
+  const size_t nt = base.triangles.size();
+  const OutputLayout lo = layout_output(pattern, segments, cl.key.size(), ed.edges.size(), nt);
+  const bool uv_out = base.has_surface() && base.triangle_patch.size() == nt && base.triangle_uv.size() == nt;
+  const bool sp_out = uv_out && base.surface_points.size() == base.positions.size();
+  Tessellation out;
+  out.positions.resize(lo.total);
+  out.normals.resize(lo.total);
+  if (sp_out) out.surface_points.resize(lo.total);
+  write_shared_vertices(in, cl, ed, lo, sp_out, out);
+
+  const size_t per_tri = pattern.triangles.size();
+  std::vector<Triangle> slots(nt * per_tri);
+  tbb::parallel_for(size_t{0}, nt, [&](size_t t) {
+    if ((t & 1023u) == 0) budget::check("the PN tessellation");
+    if (ed.skipped[t]) return;
+    tessellate_triangle(in, cl, ed, pattern, lo, sp_out, t, &slots[t * per_tri], out);
+  });
+
+  compact(base, pattern, ed.skipped, slots, uv_out, out);
+  count_cracks(in, cl, ed.edges, stats);
   if (stats_out) *stats_out = stats;
   return out;
 }
