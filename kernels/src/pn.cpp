@@ -197,36 +197,84 @@ void zipper(const std::vector<uint32_t>& out, const std::vector<double>& tout, c
   }
 }
 
-}  // namespace
+// One ring of a fractional_odd pattern: its corners, and its three sides (side s from corner s to
+// corner s + 1) with each point's parameter along its side, 0..1.
+struct Ring {
+  std::array<uint32_t, 3> corner{};
+  std::array<std::vector<uint32_t>, 3> side;
+  std::array<std::vector<double>, 3> param;
+};
 
-TrianglePattern fractional_odd_pattern(const std::array<double, 3>& outer, double inside) {
-  TrianglePattern p;
-  // Outer ring: corner s, then side s's interior points.
+// Outer ring: corner s, then side s's interior points; its vertices are appended to p.
+Ring outer_ring(const std::array<double, 3>& outer, TrianglePattern& p) {
+  Ring ring;
   std::array<std::vector<double>, 3> edge_t;
   for (int s = 0; s < 3; ++s) edge_t[s] = fractional_odd_edge_params(outer[s]);
-  std::array<uint32_t, 3> corner{};
   for (int s = 0; s < 3; ++s) {
     Bary b(0.0);
     b[s] = 1.0;
-    corner[s] = static_cast<uint32_t>(p.vertices.size());
+    ring.corner[s] = static_cast<uint32_t>(p.vertices.size());
     p.vertices.push_back(b);
   }
-  std::array<std::vector<double>, 3> side_param;
   for (int s = 0; s < 3; ++s) {
     const int a = s, c = (s + 1) % 3;
-    p.side[s].push_back(corner[a]);
-    side_param[s].push_back(0.0);
+    ring.side[s].push_back(ring.corner[a]);
+    ring.param[s].push_back(0.0);
     for (size_t q = 1; q + 1 < edge_t[s].size(); ++q) {
       Bary b(0.0);
       b[c] = edge_t[s][q];
       b[a] = 1.0 - edge_t[s][q];
-      p.side[s].push_back(static_cast<uint32_t>(p.vertices.size()));
-      side_param[s].push_back(edge_t[s][q]);
+      ring.side[s].push_back(static_cast<uint32_t>(p.vertices.size()));
+      ring.param[s].push_back(edge_t[s][q]);
       p.vertices.push_back(b);
     }
-    p.side[s].push_back(corner[c]);
-    side_param[s].push_back(1.0);
+    ring.side[s].push_back(ring.corner[c]);
+    ring.param[s].push_back(1.0);
   }
+  return ring;
+}
+
+// Ring r (r >= 1) of the inside points x: it uses points q = r .. x.size() - 1 - r, lies on the
+// lines b_opposite = 2 x_r / 3 and has x.size() - 1 - 2r segments per side; its vertices are
+// appended to p.
+Ring inner_ring(const std::vector<double>& x, int r, TrianglePattern& p) {
+  const int n_points = static_cast<int>(x.size());
+  const double perp = x[static_cast<size_t>(r)] * 2.0 / 3.0;
+  const int first = r, last = n_points - 1 - r;
+  Ring ring;
+  for (int s = 0; s < 3; ++s) {
+    Bary b(perp);
+    b[s] = 1.0 - 2.0 * perp;
+    ring.corner[s] = static_cast<uint32_t>(p.vertices.size());
+    p.vertices.push_back(b);
+  }
+  for (int s = 0; s < 3; ++s) {
+    const int a = s, c = (s + 1) % 3, o = (s + 2) % 3;
+    ring.side[s].push_back(ring.corner[a]);
+    ring.param[s].push_back(0.0);
+    const double span = x[static_cast<size_t>(last)] - x[static_cast<size_t>(first)];
+    for (int q = first + 1; q < last; ++q) {
+      Bary b(0.0);
+      b[o] = perp;
+      b[c] = x[static_cast<size_t>(q)] - perp / 2.0;
+      b[a] = 1.0 - b[c] - b[o];
+      ring.side[s].push_back(static_cast<uint32_t>(p.vertices.size()));
+      ring.param[s].push_back((x[static_cast<size_t>(q)] - x[static_cast<size_t>(first)]) / span);
+      p.vertices.push_back(b);
+    }
+    ring.side[s].push_back(ring.corner[c]);
+    ring.param[s].push_back(1.0);
+  }
+  return ring;
+}
+
+}  // namespace
+
+TrianglePattern fractional_odd_pattern(const std::array<double, 3>& outer, double inside) {
+  TrianglePattern p;
+  const Ring outer_r = outer_ring(outer, p);
+  p.side = outer_r.side;
+  const std::array<uint32_t, 3>& corner = outer_r.corner;
 
   const std::vector<double> x = fractional_odd_edge_params(inside);
   const int n_points = static_cast<int>(x.size());  // even: 2 * ceil_half
@@ -246,45 +294,15 @@ TrianglePattern fractional_odd_pattern(const std::array<double, 3>& outer, doubl
     return p;
   }
 
-  // Rings r = 1 .. (n_points - 2) / 2; ring r uses inside points q = r .. n_points - 1 - r, lies on
-  // the lines b_opposite = 2 x_r / 3 and has n_points - 1 - 2r segments per side.
-  std::array<std::vector<uint32_t>, 3> prev_side = p.side;
-  std::array<std::vector<double>, 3> prev_param = side_param;
+  // Rings r = 1 .. (n_points - 2) / 2, each zipped to the one outside it.
+  Ring prev = outer_r;
   for (int r = 1; 2 * r <= n_points - 2; ++r) {
-    const double perp = x[static_cast<size_t>(r)] * 2.0 / 3.0;
-    const int first = r, last = n_points - 1 - r;
-    std::array<std::vector<uint32_t>, 3> ring_side;
-    std::array<std::vector<double>, 3> ring_param;
-    std::array<uint32_t, 3> ring_corner{};
-    for (int s = 0; s < 3; ++s) {
-      Bary b(perp);
-      b[s] = 1.0 - 2.0 * perp;
-      ring_corner[s] = static_cast<uint32_t>(p.vertices.size());
-      p.vertices.push_back(b);
-    }
-    for (int s = 0; s < 3; ++s) {
-      const int a = s, c = (s + 1) % 3, o = (s + 2) % 3;
-      ring_side[s].push_back(ring_corner[a]);
-      ring_param[s].push_back(0.0);
-      const double span = x[static_cast<size_t>(last)] - x[static_cast<size_t>(first)];
-      for (int q = first + 1; q < last; ++q) {
-        Bary b(0.0);
-        b[o] = perp;
-        b[c] = x[static_cast<size_t>(q)] - perp / 2.0;
-        b[a] = 1.0 - b[c] - b[o];
-        ring_side[s].push_back(static_cast<uint32_t>(p.vertices.size()));
-        ring_param[s].push_back((x[static_cast<size_t>(q)] - x[static_cast<size_t>(first)]) / span);
-        p.vertices.push_back(b);
-      }
-      ring_side[s].push_back(ring_corner[c]);
-      ring_param[s].push_back(1.0);
-    }
-    for (int s = 0; s < 3; ++s) zipper(prev_side[s], prev_param[s], ring_side[s], ring_param[s], p.triangles);
-    prev_side = ring_side;
-    prev_param = ring_param;
+    Ring ring = inner_ring(x, r, p);
+    for (int s = 0; s < 3; ++s) zipper(prev.side[s], prev.param[s], ring.side[s], ring.param[s], p.triangles);
+    prev = std::move(ring);
   }
   // Innermost ring has one segment per side: the centre triangle.
-  p.triangles.push_back({prev_side[0][0], prev_side[1][0], prev_side[2][0]});
+  p.triangles.push_back({prev.side[0][0], prev.side[1][0], prev.side[2][0]});
   return p;
 }
 
