@@ -14,6 +14,7 @@
 #include <unordered_map>
 
 namespace sagitta {
+namespace detail {
 
 // ---- The PN triangle --------------------------------------------------------------------------
 
@@ -306,7 +307,11 @@ TrianglePattern fractional_odd_pattern(const std::array<double, 3>& outer, doubl
   return p;
 }
 
+}  // namespace detail
+
 // ---- The scheme ---------------------------------------------------------------------------------
+
+using namespace detail;  // the scheme is built from the PN triangle and the patterns above
 
 namespace {
 

@@ -20,6 +20,7 @@ namespace {
 
 using test::count_topology;
 using test::shared_data;
+using namespace detail;  // the PN triangle and the patterns
 
 Vec3 random_unit(std::mt19937_64& rng) {
   std::normal_distribution<double> g;

@@ -11,6 +11,12 @@
 
 namespace sagitta {
 
+// Largest factor Direct3D 11 accepts; larger factors are clamped to it, smaller than 1 to 1.
+inline constexpr double kMaxTessFactor = 63.0;
+
+// The PN triangle and the patterns are the scheme's building blocks, exported for its tests only.
+namespace detail {
+
 // ---- The PN triangle --------------------------------------------------------------------------
 
 // Barycentric coordinates (b0, b1, b2) weight corners 0, 1, 2; b0 + b1 + b2 = 1.
@@ -72,9 +78,6 @@ struct TrianglePattern {
 // Integer partition: k >= 1 segments per side, (k + 1)(k + 2) / 2 vertices, k^2 triangles.
 TrianglePattern integer_pattern(int k);
 
-// Largest factor Direct3D 11 accepts; larger factors are clamped to it, smaller than 1 to 1.
-inline constexpr double kMaxTessFactor = 63.0;
-
 // Parameters in [0, 1] of the points on an edge with a fractional_odd factor f: the segment count
 // is the smallest odd integer >= f; at a non-odd f two segments are shorter and grow as f rises,
 // placed by D3D11's ruler-function split point. Symmetric: t[N - q] = 1 - t[q] (exactly at odd
@@ -89,6 +92,8 @@ int fractional_odd_segments(double factor);
 // down to a single centre triangle. Adjacent rings are stitched by a zipper that advances along
 // the ring with the smaller next parameter (same triangle count as D3D11; diagonals may differ).
 TrianglePattern fractional_odd_pattern(const std::array<double, 3>& outer, double inside);
+
+}  // namespace detail
 
 // ---- The scheme ---------------------------------------------------------------------------------
 
