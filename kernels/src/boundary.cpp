@@ -32,7 +32,7 @@ int side_segments(const BoundaryLayout& layout, const Topology& topology, uint32
 
 uint32_t side_vertex(const BoundaryLayout& layout, const Topology& topology, uint32_t patch, Side side, int k) {
   const Topology::SideInfo& info = topology.side(patch, side);
-  const auto corners = side_corners(side);
+  const auto corners = detail::side_corners(side);
   if (info.collapsed) return layout.corner_base + topology.corner_class[patch * 4 + static_cast<uint32_t>(corners[0])];
   const int n = layout.edge_segments[static_cast<size_t>(info.edge)];
   if (k <= 0) return layout.corner_base + topology.corner_class[patch * 4 + static_cast<uint32_t>(corners[0])];
@@ -52,7 +52,7 @@ void fill_boundary(const Model& model, const Topology& topology, const BoundaryL
     done[c] = true;
     const uint32_t id = layout.corner_base + c;
     out.positions[id] = topology.corner_position[c];
-    const Vec2 uv = corner_uv(static_cast<int>(k % 4));
+    const Vec2 uv = detail::corner_uv(static_cast<int>(k % 4));
     if (normals) out.normals[id] = surface_normal(model.patches[k / 4], uv.x, uv.y);
     if (surface) out.surface_points[id] = {k / 4, uv.x, uv.y};
   }

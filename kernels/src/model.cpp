@@ -74,6 +74,8 @@ Model replicate(const Model& model, int copies) {
   return out;
 }
 
+namespace detail {
+
 std::array<int, 2> side_corners(Side side) {
   switch (side) {
     case Side::kU0: return {0, 1};
@@ -85,6 +87,8 @@ std::array<int, 2> side_corners(Side side) {
 }
 
 Vec2 corner_uv(int corner) { return {corner >= 2 ? 1.0 : 0.0, (corner & 1) ? 1.0 : 0.0}; }
+
+}  // namespace detail
 
 size_t Topology::free_edges() const {
   return static_cast<size_t>(std::count_if(edges.begin(), edges.end(), [](const Edge& e) { return e.uses.size() == 1; }));
@@ -307,7 +311,7 @@ Topology build_topology(const Model& model, double near_miss_tolerance) {
     const BezierPatch& patch = model.patches[p];
     for (Side s : kAllSides) {
       Topology::SideInfo& info = topo.sides[p * 4 + static_cast<int>(s)];
-      const auto [c0, c1] = side_corners(s);
+      const auto [c0, c1] = detail::side_corners(s);
       CurveKey forward = side_key(patch, s, false);
       if (all_equal(forward)) {
         info.collapsed = true;
@@ -333,7 +337,7 @@ Topology build_topology(const Model& model, double near_miss_tolerance) {
       if (!edge.uses.empty()) {
         // Unite the corners at the canonical start and end with those of the first use.
         const SideRef first = edge.uses.front();
-        const auto [f0, f1] = side_corners(first.side);
+        const auto [f0, f1] = detail::side_corners(first.side);
         const bool first_rev = edge.use_reversed.front();
         const uint32_t first_start = first.patch * 4 + static_cast<uint32_t>(first_rev ? f1 : f0);
         const uint32_t first_end = first.patch * 4 + static_cast<uint32_t>(first_rev ? f0 : f1);

@@ -23,12 +23,16 @@ int segments_for_level(int level) {
   return 1 << level;
 }
 
+namespace detail {
+
 int segments_for_paper_level(int level) {
   if (level < 1 || level > kMaxUniformLevel) {
     throw InputError("paper level " + std::to_string(level) + " is outside 1.." + std::to_string(kMaxUniformLevel));
   }
   return (1 << (level + 1)) - 1;
 }
+
+}  // namespace detail
 
 uint64_t uniform_triangle_count(const Model& model, int segments) {
   return 2ull * static_cast<uint64_t>(segments) * static_cast<uint64_t>(segments) * model.patches.size();

@@ -43,7 +43,7 @@ TEST(Uniform, ReproducesSeedTable1) {
   const Model cup = io::read_bpt(cup_path), pot = io::read_bpt(pot_path);
   for (int level = 1; level <= 5; ++level) {
     UniformParams params;
-    params.segments = segments_for_paper_level(level);
+    params.segments = detail::segments_for_paper_level(level);
     params.normals = params.surface_data = false;
     // One instance is tessellated for real; the scene is `copies` disjoint instances, which the
     // S5cups row checks by tessellating the replicated scene itself.
@@ -196,7 +196,7 @@ TEST(Uniform, OutputDoesNotDependOnThreadCount) {
 TEST(Uniform, LevelsNestAndLimitsAreExplained) {
   EXPECT_EQ(segments_for_level(0), 1);
   EXPECT_EQ(segments_for_level(6), 64);
-  EXPECT_EQ(segments_for_paper_level(3), 15);
+  EXPECT_EQ(detail::segments_for_paper_level(3), 15);
   try {
     segments_for_level(13);
     FAIL() << "level 13 accepted";

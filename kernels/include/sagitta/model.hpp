@@ -35,10 +35,12 @@ struct SideRef {
 
 // Corner c of a patch: 0 = (u0, v0), 1 = (u0, v1), 2 = (u1, v0), 3 = (u1, v1).
 inline constexpr int kCornersPerPatch = 4;
+namespace detail {  // used by the topology and the boundary layout only
 // The two corners at the start and end of a side, in the side's increasing parameter order.
 std::array<int, 2> side_corners(Side side);
 // (u, v) of a corner.
 Vec2 corner_uv(int corner);
+}  // namespace detail
 
 struct Topology {
   // One unique boundary curve. Its canonical direction is the lexicographically smaller of the

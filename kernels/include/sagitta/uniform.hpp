@@ -22,8 +22,11 @@ struct UniformParams {
 // Segments for `--level L`: 2^L (levels nest). Throws InputError when L is outside 0..kMaxUniformLevel.
 inline constexpr int kMaxUniformLevel = 12;
 int segments_for_level(int level);
-// The seed's level l samples 2^(l+1) points per side: N = 2^(l+1) - 1.
+namespace detail {
+// The seed's level l samples 2^(l+1) points per side: N = 2^(l+1) - 1 (its tests reproduce the seed's
+// table with it). Throws InputError when l is outside 1..kMaxUniformLevel.
 int segments_for_paper_level(int level);
+}  // namespace detail
 
 // Triangles the scheme will produce (emitted + degenerate) before allocating anything.
 uint64_t uniform_triangle_count(const Model& model, int segments);
