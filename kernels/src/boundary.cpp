@@ -53,7 +53,7 @@ void fill_boundary(const Model& model, const Topology& topology, const BoundaryL
     const uint32_t id = layout.corner_base + c;
     out.positions[id] = topology.corner_position[c];
     const Vec2 uv = detail::corner_uv(static_cast<int>(k % 4));
-    if (normals) out.normals[id] = surface_normal(model.patches[k / 4], uv.x, uv.y);
+    if (normals) out.normals[id] = detail::surface_normal(model.patches[k / 4], uv.x, uv.y);
     if (surface) out.surface_points[id] = {k / 4, uv.x, uv.y};
   }
   tbb::parallel_for(size_t{0}, topology.edges.size(), [&](size_t e) {
@@ -66,7 +66,7 @@ void fill_boundary(const Model& model, const Topology& topology, const BoundaryL
       const uint32_t id = layout.edge_base[e] + static_cast<uint32_t>(k - 1);
       out.positions[id] = de_casteljau_curve(edge.points, edge.weights, t);
       const Vec2 uv = side_uv(owner.side, owner_reversed ? 1.0 - t : t);
-      if (normals) out.normals[id] = surface_normal(model.patches[owner.patch], uv.x, uv.y);
+      if (normals) out.normals[id] = detail::surface_normal(model.patches[owner.patch], uv.x, uv.y);
       if (surface) out.surface_points[id] = {owner.patch, uv.x, uv.y};
     }
   });

@@ -279,7 +279,7 @@ void evaluate_lattice(const PatchState& ps) {
   const BezierPatch& patch = ps.patch;
   const Lattice& lat = ps.lat;
   const int na = ps.na, mb = ps.mb;
-  const PatchEvaluator eval(patch);
+  const detail::PatchEvaluator eval(patch);
   std::vector<SurfacePointEval>& ev = ps.sc.ev;
   ev.resize(ps.sc.mask.size());
   const int du = patch.degree_u, dv = patch.degree_v;
@@ -421,7 +421,7 @@ void number_vertices(const EscInput& in, const PatchState& ps, PatchOutput& out)
       if (params.normals) {
         const Vec3 cr = glm::cross(e.du, e.dv);
         const double len = glm::length(cr);
-        out.normals.push_back((len > 0.0 && std::isfinite(len)) ? cr / len : surface_normal(ps.patch, u, v));
+        out.normals.push_back((len > 0.0 && std::isfinite(len)) ? cr / len : detail::surface_normal(ps.patch, u, v));
       }
       if (params.surface_data) out.surface_points.push_back({pid, u, v});
     }

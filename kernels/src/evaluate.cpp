@@ -109,6 +109,8 @@ SurfacePointEval evaluate_with_derivatives(const BezierPatch& patch, double u, d
   return e;
 }
 
+namespace detail {
+
 Vec3 surface_normal(const BezierPatch& patch, double u, double v) {
   const double scale = control_box(patch).diagonal();
   const double tiny = 1e-24 * scale * scale;
@@ -235,5 +237,7 @@ SurfacePointEval PatchEvaluator::evaluate(double u, double v) const {
   contract_u(a, da, row, drow);
   return finish(row, drow, b, db);
 }
+
+}  // namespace detail
 
 }  // namespace sagitta

@@ -130,7 +130,7 @@ struct PatchPass {
     if (params.normals) {
       const Vec3 cr = glm::cross(e.du, e.dv);
       const double len = glm::length(cr);
-      out.normals[id] = (len > 0.0 && std::isfinite(len)) ? cr / len : surface_normal(patch, u, v);
+      out.normals[id] = (len > 0.0 && std::isfinite(len)) ? cr / len : detail::surface_normal(patch, u, v);
     }
     if (params.surface_data) out.surface_points[id] = {pid, u, v};
   }
@@ -142,7 +142,7 @@ void sample_interior(const PatchPass& pp) {
   const BezierPatch& patch = pp.patch;
   const int n = pp.plan.n;
   if (n > 1) {
-    const PatchEvaluator eval(patch);
+    const detail::PatchEvaluator eval(patch);
     const int du = patch.degree_u, dv = patch.degree_v;
     std::vector<double> bv(static_cast<size_t>((n + 1) * (dv + 1))), dbv(bv.size());
     for (int b = 1; b < n; ++b) {
@@ -163,7 +163,7 @@ void sample_interior(const PatchPass& pp) {
     }
   }
   const uint32_t centre_id = static_cast<uint32_t>(pp.plan.interior_base);
-  if (pp.plan.centre) pp.store_vertex(centre_id, PatchEvaluator(patch).evaluate(0.5, 0.5), 0.5, 0.5);
+  if (pp.plan.centre) pp.store_vertex(centre_id, detail::PatchEvaluator(patch).evaluate(0.5, 0.5), 0.5, 0.5);
 }
 
 // Writes a patch's triangles into its slots, in order; a triangle repeating a vertex is marked kSkip.

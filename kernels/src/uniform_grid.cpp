@@ -29,7 +29,7 @@ UniformGridPlan::UniformGridPlan(const Model& model, int segments) : segments_(s
   evals_.reserve(model.patches.size());
   for (const BezierPatch& patch : model.patches) {
     evals_.emplace_back(patch);
-    const PatchEvaluator& eval = evals_.back();
+    const detail::PatchEvaluator& eval = evals_.back();
     const int m = patch.degree_v;
     int& index = table_of[eval.uses_power_basis() ? 1 : 0][static_cast<size_t>(m)];
     if (index < 0) {
@@ -137,7 +137,7 @@ inline __attribute__((always_inline)) void grid_row_fixed(const double* table, s
 // are scratch rows of n+1 doubles (used for v-degrees above 3). Every position is the same sequence of IEEE operations as
 // PatchEvaluator::position (no fused multiply-add), so the output is bit-identical to it.
 template <class Out>
-inline __attribute__((always_inline)) void grid_patch_body(const PatchEvaluator& eval, const double* table,
+inline __attribute__((always_inline)) void grid_patch_body(const detail::PatchEvaluator& eval, const double* table,
                                                            bool unit_weight, int n, Out* out, double* x, double* y,
                                                            double* z, double* w) {
   const size_t cols = static_cast<size_t>(n) + 1;
@@ -167,12 +167,12 @@ inline __attribute__((always_inline)) void grid_patch_body(const PatchEvaluator&
 #define SAGITTA_GRID_CLONES
 #endif
 
-SAGITTA_GRID_CLONES void grid_patch(const PatchEvaluator& eval, const double* table, bool unit_weight, int n,
+SAGITTA_GRID_CLONES void grid_patch(const detail::PatchEvaluator& eval, const double* table, bool unit_weight, int n,
                                     float* out, double* x, double* y, double* z, double* w) {
   grid_patch_body(eval, table, unit_weight, n, out, x, y, z, w);
 }
 
-SAGITTA_GRID_CLONES void grid_patch(const PatchEvaluator& eval, const double* table, bool unit_weight, int n,
+SAGITTA_GRID_CLONES void grid_patch(const detail::PatchEvaluator& eval, const double* table, bool unit_weight, int n,
                                     double* out, double* x, double* y, double* z, double* w) {
   grid_patch_body(eval, table, unit_weight, n, out, x, y, z, w);
 }

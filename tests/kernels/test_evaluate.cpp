@@ -13,6 +13,9 @@
 namespace sagitta {
 namespace {
 
+using detail::PatchEvaluator;
+using detail::surface_normal;
+
 double ulp(double x) { return std::nextafter(std::fabs(x), INFINITY) - std::fabs(x); }
 
 // Long-double de Casteljau computed relative to the first control point, so the reference keeps its

@@ -15,6 +15,8 @@
 namespace sagitta {
 namespace {
 
+using detail::PatchEvaluator;
+
 // Polynomial low degree (power basis), rational (division), high degree (Bernstein form).
 std::vector<Model> grid_models() {
   Model high;

@@ -24,6 +24,7 @@
 #include <vector>
 
 using namespace sagitta;
+using sagitta::detail::PatchEvaluator;
 
 namespace {
 

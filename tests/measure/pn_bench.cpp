@@ -23,6 +23,7 @@
 namespace {
 
 using namespace sagitta;
+using sagitta::detail::PatchEvaluator;
 
 struct Distances {
   double parametric = 0.0;

@@ -26,6 +26,9 @@ struct SurfacePointEval {
 // Position and first partial derivatives by de Casteljau in double.
 SurfacePointEval evaluate_with_derivatives(const BezierPatch& patch, double u, double v);
 
+// Used by the schemes; exported for their tests only.
+namespace detail {
+
 // Unit normal (dS/du x dS/dv). Where that cross product vanishes (collapsed edges, cusps) the limit
 // along the direction to the patch centre is used, so the result is a finite unit vector wherever
 // the patch is not collapsed to a point or a curve; there it is (0, 0, 1).
@@ -69,6 +72,8 @@ class PatchEvaluator {
   Vec3 origin_;
   std::vector<std::array<double, 4>> k_;  // (n+1) x (m+1) homogeneous coefficients (w*(P-o), w)
 };
+
+}  // namespace detail
 
 // Binomial coefficient C(n, k) as a double (exact for n <= 60).
 double binomial(int n, int k);

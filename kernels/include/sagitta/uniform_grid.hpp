@@ -51,7 +51,7 @@ class UniformGridPlan {
   void run_impl(Out* xyz) const;
 
   int segments_;
-  std::vector<PatchEvaluator> evals_;
+  std::vector<detail::PatchEvaluator> evals_;
   std::vector<char> unit_weight_;  // per patch: polynomial in the power basis (no division needed)
   std::vector<const double*> tables_;  // per patch: its v-basis table
   std::vector<std::vector<double>> table_store_;
