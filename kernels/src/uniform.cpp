@@ -75,6 +75,8 @@ struct Plan {
   uint64_t vertices = 0, slots = 0;
 };
 
+// Plans the patches in order: interior vertices after the side vertices, triangle slots from 0.
+// Throws InputError when a side's samples do not nest with the patch's own grid.
 Plan plan_patches(const Topology& topology, const BoundaryLayout& layout, const std::vector<int>& own) {
   const size_t np = own.size();
   Plan plan_all;
