@@ -1,4 +1,4 @@
-// `sagitta bench`: the performance numbers of issue 10 in one run (docs/BENCHMARKS.md).
+// `sagitta bench`: the performance numbers of docs/BENCHMARKS.md in one run.
 // Sections: store bandwidth (memset, copy), scheme throughput (single thread and all threads),
 // the Teacups scene at L = 3, the tea set against OCCT's BRepMesh at equal certified error, and
 // certified validation time against tessellation time. Prints a table; --json writes the numbers.

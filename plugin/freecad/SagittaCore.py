@@ -15,7 +15,8 @@ import Part
 
 import _sagitta
 
-SCHEMES = ["uniform", "esc", "pn"]
+# The schemes, as the library names them (the same list and order as the CLI's --scheme).
+SCHEMES = list(_sagitta.scheme_names())
 PARAM_PATH = "User parameter:BaseApp/Preferences/Mod/Sagitta"
 
 
