@@ -52,10 +52,55 @@ void add_polygon(Tessellation& mesh, const std::vector<uint32_t>& poly) {
   for (size_t k = 1; k + 1 < poly.size(); ++k) mesh.triangles.push_back({poly[0], poly[k], poly[k + 1]});
 }
 
-Tessellation parse_obj(const std::string& text, const std::string& name) {
+// An OBJ file as read: positions and normals in file order, and the corners of the faces.
+struct ObjRecords {
   std::vector<Vec3> positions, normals;
   std::vector<std::pair<long, long>> corners;  // (position index, normal index or -1), 0-based
   std::vector<size_t> face_sizes;
+};
+
+// The rest of a "v" or "vn" line: 3 finite numbers.
+void read_obj_vector(std::istringstream& s, const std::string& tag, ObjRecords& obj, const std::string& name,
+                     size_t line_no) {
+  double c[3];
+  std::string f;
+  for (double& x : c) {
+    if (!(s >> f) || !to_double(f, x)) fail(name, line_no, "'" + tag + "' needs 3 finite numbers");
+  }
+  (tag == "v" ? obj.positions : obj.normals).emplace_back(c[0], c[1], c[2]);
+}
+
+// The rest of an "f" line: at least 3 corners "v", "v/t", "v//n" or "v/t/n", each index of a
+// position or normal read so far (negative: counted back from the last one).
+void read_obj_face(std::istringstream& s, ObjRecords& obj, const std::string& name, size_t line_no) {
+  size_t count = 0;
+  std::string corner;
+  while (s >> corner) {
+    const size_t s1 = corner.find('/');
+    const size_t s2 = s1 == std::string::npos ? std::string::npos : corner.find('/', s1 + 1);
+    long vi, ni = 0;
+    if (!to_long(corner.substr(0, s1), vi)) fail(name, line_no, "bad face corner '" + corner + "'");
+    if (s2 != std::string::npos && s2 + 1 < corner.size() && !to_long(corner.substr(s2 + 1), ni)) {
+      fail(name, line_no, "bad normal index in '" + corner + "'");
+    }
+    const long nv = static_cast<long>(obj.positions.size()), nn = static_cast<long>(obj.normals.size());
+    if (vi < 0) vi += nv + 1;
+    if (vi < 1 || vi > nv) {
+      fail(name, line_no,
+           "vertex index " + corner.substr(0, s1) + " is out of range (" + std::to_string(nv) + " vertices so far)");
+    }
+    if (ni < 0) ni += nn + 1;
+    if (ni != 0 && (ni < 1 || ni > nn)) fail(name, line_no, "normal index in '" + corner + "' is out of range");
+    obj.corners.emplace_back(vi - 1, ni - 1);
+    ++count;
+  }
+  if (count < 3) fail(name, line_no, "a face needs at least 3 vertices");
+  obj.face_sizes.push_back(count);
+}
+
+// Reads the "v", "vn" and "f" lines; other lines, '#' comments and blank lines are skipped.
+ObjRecords read_obj_records(const std::string& text, const std::string& name) {
+  ObjRecords obj;
   size_t line_no = 0, pos = 0;
   while (pos < text.size()) {
     const size_t end = text.find('\n', pos);
@@ -67,41 +112,22 @@ Tessellation parse_obj(const std::string& text, const std::string& name) {
     std::string tag;
     if (!(s >> tag)) continue;
     if (tag == "v" || tag == "vn") {
-      double c[3];
-      std::string f;
-      for (double& x : c) {
-        if (!(s >> f) || !to_double(f, x)) fail(name, line_no, "'" + tag + "' needs 3 finite numbers");
-      }
-      (tag == "v" ? positions : normals).emplace_back(c[0], c[1], c[2]);
+      read_obj_vector(s, tag, obj, name, line_no);
     } else if (tag == "f") {
-      size_t count = 0;
-      std::string corner;
-      while (s >> corner) {
-        const size_t s1 = corner.find('/');
-        const size_t s2 = s1 == std::string::npos ? std::string::npos : corner.find('/', s1 + 1);
-        long vi, ni = 0;
-        if (!to_long(corner.substr(0, s1), vi)) fail(name, line_no, "bad face corner '" + corner + "'");
-        if (s2 != std::string::npos && s2 + 1 < corner.size() && !to_long(corner.substr(s2 + 1), ni)) {
-          fail(name, line_no, "bad normal index in '" + corner + "'");
-        }
-        const long nv = static_cast<long>(positions.size()), nn = static_cast<long>(normals.size());
-        if (vi < 0) vi += nv + 1;
-        if (vi < 1 || vi > nv) {
-          fail(name, line_no, "vertex index " + corner.substr(0, s1) + " is out of range (" + std::to_string(nv) +
-                                  " vertices so far)");
-        }
-        if (ni < 0) ni += nn + 1;
-        if (ni != 0 && (ni < 1 || ni > nn)) fail(name, line_no, "normal index in '" + corner + "' is out of range");
-        corners.emplace_back(vi - 1, ni - 1);
-        ++count;
-      }
-      if (count < 3) fail(name, line_no, "a face needs at least 3 vertices");
-      face_sizes.push_back(count);
+      read_obj_face(s, obj, name, line_no);
     }
   }
-  if (positions.empty()) fail(name, 0, "the mesh has no vertices");
-  // Keep the file's vertex numbering when every corner has a normal and each position has one
-  // normal (or when no corner has one); split a position per distinct normal otherwise (creases).
+  return obj;
+}
+
+// Fills the mesh's positions (and normals, when every corner has one) and returns the mesh vertex
+// of every corner. Keeps the file's vertex numbering when every corner has a normal and each
+// position has one normal (or when no corner has one); splits a position per distinct normal
+// otherwise (creases).
+std::vector<uint32_t> obj_vertices(const ObjRecords& obj, Tessellation& mesh) {
+  const std::vector<Vec3>& positions = obj.positions;
+  const std::vector<Vec3>& normals = obj.normals;
+  const std::vector<std::pair<long, long>>& corners = obj.corners;
   std::vector<long> normal_of(positions.size(), -2);
   bool consistent = true, all_normals = true, any_normal = false;
   for (const auto& [v, n] : corners) {
@@ -110,7 +136,6 @@ Tessellation parse_obj(const std::string& text, const std::string& name) {
     if (normal_of[static_cast<size_t>(v)] == -2) normal_of[static_cast<size_t>(v)] = n;
     consistent &= normal_of[static_cast<size_t>(v)] == n;
   }
-  Tessellation mesh;
   std::vector<uint32_t> ids;
   ids.reserve(corners.size());
   if (consistent && (all_normals || !any_normal)) {
@@ -132,9 +157,17 @@ Tessellation parse_obj(const std::string& text, const std::string& name) {
     }
     if (!all_normals) mesh.normals.clear();
   }
+  return ids;
+}
+
+Tessellation parse_obj(const std::string& text, const std::string& name) {
+  const ObjRecords obj = read_obj_records(text, name);
+  if (obj.positions.empty()) fail(name, 0, "the mesh has no vertices");
+  Tessellation mesh;
+  const std::vector<uint32_t> ids = obj_vertices(obj, mesh);
   size_t at = 0;
   std::vector<uint32_t> poly;
-  for (size_t size : face_sizes) {
+  for (size_t size : obj.face_sizes) {  // fan-triangulated faces, in file order
     poly.assign(ids.begin() + static_cast<long>(at), ids.begin() + static_cast<long>(at + size));
     add_polygon(mesh, poly);
     at += size;
