@@ -234,100 +234,130 @@ class PlyValues {
   const std::string& name_;
 };
 
-Tessellation parse_ply(const std::string& text, const std::string& name) {
+// A PLY header: the body's format, the elements in file order and where the body starts.
+struct PlyHeader {
+  int format = -1;  // 0 ascii, 1 binary little endian, 2 binary big endian
+  std::vector<PlyElement> elements;
+  size_t body = 0;  // the first byte after the end_header line
+};
+
+// One header line: "format", "element" and "property" lines are read, other lines skipped.
+void read_ply_header_line(const std::string& line, size_t line_no, PlyHeader& header, const std::string& name) {
+  std::istringstream s(line);
+  std::string tag;
+  s >> tag;
+  if (tag == "format") {
+    std::string f;
+    s >> f;
+    header.format = f == "ascii" ? 0 : f == "binary_little_endian" ? 1 : f == "binary_big_endian" ? 2 : -1;
+    if (header.format < 0) fail(name, line_no, "unknown PLY format '" + f + "'");
+  } else if (tag == "element") {
+    PlyElement e;
+    long count;
+    std::string c;
+    s >> e.name >> c;
+    if (!to_long(c, count) || count < 0) fail(name, line_no, "bad element count");
+    e.count = static_cast<size_t>(count);
+    header.elements.push_back(e);
+  } else if (tag == "property") {
+    if (header.elements.empty()) fail(name, line_no, "property before any element");
+    PlyProperty p;
+    s >> p.type;
+    if (p.type == "list") s >> p.count_type >> p.type;
+    s >> p.name;
+    if (!ply_type_size(p.type) || (!p.count_type.empty() && !ply_type_size(p.count_type))) {
+      fail(name, line_no, "unknown property type in '" + line + "'");
+    }
+    header.elements.back().props.push_back(p);
+  }
+}
+
+// The header: from "ply" at the start of the file to the end_header line, with a format line.
+PlyHeader read_ply_header(const std::string& text, const std::string& name) {
   const size_t header_end = text.find("end_header");
   if (text.compare(0, 3, "ply") != 0 || header_end == std::string::npos) fail(name, 1, "not a PLY file (no header)");
-  std::istringstream header(text.substr(0, header_end));
-  std::vector<PlyElement> elements;
-  int format = -1;
+  std::istringstream lines(text.substr(0, header_end));
+  PlyHeader header;
   std::string line;
   size_t line_no = 0;
-  while (std::getline(header, line)) {
-    ++line_no;
-    std::istringstream s(line);
-    std::string tag;
-    s >> tag;
-    if (tag == "format") {
-      std::string f;
-      s >> f;
-      format = f == "ascii" ? 0 : f == "binary_little_endian" ? 1 : f == "binary_big_endian" ? 2 : -1;
-      if (format < 0) fail(name, line_no, "unknown PLY format '" + f + "'");
-    } else if (tag == "element") {
-      PlyElement e;
-      long count;
-      std::string c;
-      s >> e.name >> c;
-      if (!to_long(c, count) || count < 0) fail(name, line_no, "bad element count");
-      e.count = static_cast<size_t>(count);
-      elements.push_back(e);
-    } else if (tag == "property") {
-      if (elements.empty()) fail(name, line_no, "property before any element");
-      PlyProperty p;
-      s >> p.type;
-      if (p.type == "list") s >> p.count_type >> p.type;
-      s >> p.name;
-      if (!ply_type_size(p.type) || (!p.count_type.empty() && !ply_type_size(p.count_type))) {
-        fail(name, line_no, "unknown property type in '" + line + "'");
-      }
-      elements.back().props.push_back(p);
-    }
-  }
-  if (format < 0) fail(name, 0, "PLY header has no format line");
+  while (std::getline(lines, line)) read_ply_header_line(line, ++line_no, header, name);
+  if (header.format < 0) fail(name, 0, "PLY header has no format line");
   size_t body = text.find('\n', header_end);
-  body = body == std::string::npos ? text.size() : body + 1;
-  PlyValues values(text, body, format, name);
-  Tessellation mesh;
-  bool has_normals = false;
-  for (const PlyElement& e : elements) {
-    if (e.count > text.size()) fail(name, 0, "element " + e.name + " count " + std::to_string(e.count) + " exceeds the file size");
-    const bool vertex = e.name == "vertex", face = e.name == "face";
-    if (vertex) {
-      auto has = [&](const char* n) {
-        return std::any_of(e.props.begin(), e.props.end(), [&](const PlyProperty& p) { return p.name == n; });
-      };
-      if (!has("x") || !has("y") || !has("z")) fail(name, 0, "vertex element lacks x, y or z");
-      has_normals = has("nx") && has("ny") && has("nz");
-    }
-    for (size_t k = 0; k < e.count; ++k) {
-      Vec3 p(0.0), n(0.0);
-      for (const PlyProperty& prop : e.props) {
-        if (!prop.count_type.empty()) {
-          const double cnt = values.next(prop.count_type);
-          if (cnt < 0 || cnt > 1e6) fail(name, 0, "bad list length in element " + e.name);
-          std::vector<uint32_t> poly;
-          for (int q = 0; q < static_cast<int>(cnt); ++q) {
-            const double idx = values.next(prop.type);
-            if (face && (prop.name == "vertex_indices" || prop.name == "vertex_index")) {
-              if (idx < 0 || idx >= static_cast<double>(mesh.positions.size())) {
-                fail(name, 0, "face " + std::to_string(k) + " has vertex index " + std::to_string(static_cast<long>(idx)) +
-                                  " out of range (" + std::to_string(mesh.positions.size()) + " vertices)");
-              }
-              poly.push_back(static_cast<uint32_t>(idx));
-            }
-          }
-          if (face && (prop.name == "vertex_indices" || prop.name == "vertex_index")) {
-            if (poly.size() < 3) fail(name, 0, "face " + std::to_string(k) + " has fewer than 3 vertices");
-            add_polygon(mesh, poly);
-          }
-          continue;
-        }
-        const double x = values.next(prop.type);
-        if (!std::isfinite(x)) fail(name, 0, "a " + e.name + " property is not finite");
-        if (vertex) {
-          if (prop.name == "x") p.x = x;
-          if (prop.name == "y") p.y = x;
-          if (prop.name == "z") p.z = x;
-          if (prop.name == "nx") n.x = x;
-          if (prop.name == "ny") n.y = x;
-          if (prop.name == "nz") n.z = x;
-        }
+  header.body = body == std::string::npos ? text.size() : body + 1;
+  return header;
+}
+
+// A list property of record k of element e: a face's vertex_indices (or vertex_index) become a
+// fan of triangles over the vertices read so far; any other list is read and dropped.
+void read_ply_list(const PlyElement& e, const PlyProperty& prop, size_t k, PlyValues& values, Tessellation& mesh,
+                   const std::string& name) {
+  const bool indices = e.name == "face" && (prop.name == "vertex_indices" || prop.name == "vertex_index");
+  const double cnt = values.next(prop.count_type);
+  if (cnt < 0 || cnt > 1e6) fail(name, 0, "bad list length in element " + e.name);
+  std::vector<uint32_t> poly;
+  for (int q = 0; q < static_cast<int>(cnt); ++q) {
+    const double idx = values.next(prop.type);
+    if (indices) {
+      if (idx < 0 || idx >= static_cast<double>(mesh.positions.size())) {
+        fail(name, 0,
+             "face " + std::to_string(k) + " has vertex index " + std::to_string(static_cast<long>(idx)) +
+                 " out of range (" + std::to_string(mesh.positions.size()) + " vertices)");
       }
-      if (vertex) {
-        mesh.positions.push_back(p);
-        if (has_normals) mesh.normals.push_back(n);
-      }
+      poly.push_back(static_cast<uint32_t>(idx));
     }
   }
+  if (indices) {
+    if (poly.size() < 3) fail(name, 0, "face " + std::to_string(k) + " has fewer than 3 vertices");
+    add_polygon(mesh, poly);
+  }
+}
+
+// The records of one element: a vertex appends its position (x, y, z required) and, when the
+// element has nx, ny and nz, its normal; faces append triangles; other elements are read and dropped.
+void read_ply_element(const PlyElement& e, size_t text_size, PlyValues& values, Tessellation& mesh,
+                      const std::string& name) {
+  if (e.count > text_size) {
+    fail(name, 0, "element " + e.name + " count " + std::to_string(e.count) + " exceeds the file size");
+  }
+  const bool vertex = e.name == "vertex";
+  bool has_normals = false;
+  if (vertex) {
+    auto has = [&](const char* n) {
+      return std::any_of(e.props.begin(), e.props.end(), [&](const PlyProperty& p) { return p.name == n; });
+    };
+    if (!has("x") || !has("y") || !has("z")) fail(name, 0, "vertex element lacks x, y or z");
+    has_normals = has("nx") && has("ny") && has("nz");
+  }
+  for (size_t k = 0; k < e.count; ++k) {
+    Vec3 p(0.0), n(0.0);
+    for (const PlyProperty& prop : e.props) {
+      if (!prop.count_type.empty()) {
+        read_ply_list(e, prop, k, values, mesh, name);
+        continue;
+      }
+      const double x = values.next(prop.type);
+      if (!std::isfinite(x)) fail(name, 0, "a " + e.name + " property is not finite");
+      if (vertex) {
+        if (prop.name == "x") p.x = x;
+        if (prop.name == "y") p.y = x;
+        if (prop.name == "z") p.z = x;
+        if (prop.name == "nx") n.x = x;
+        if (prop.name == "ny") n.y = x;
+        if (prop.name == "nz") n.z = x;
+      }
+    }
+    if (vertex) {
+      mesh.positions.push_back(p);
+      if (has_normals) mesh.normals.push_back(n);
+    }
+  }
+}
+
+Tessellation parse_ply(const std::string& text, const std::string& name) {
+  const PlyHeader header = read_ply_header(text, name);
+  PlyValues values(text, header.body, header.format, name);
+  Tessellation mesh;
+  for (const PlyElement& e : header.elements) read_ply_element(e, text.size(), values, mesh, name);
   require_faces(mesh, name);
   return mesh;
 }
