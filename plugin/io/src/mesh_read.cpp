@@ -52,10 +52,55 @@ void add_polygon(Tessellation& mesh, const std::vector<uint32_t>& poly) {
   for (size_t k = 1; k + 1 < poly.size(); ++k) mesh.triangles.push_back({poly[0], poly[k], poly[k + 1]});
 }
 
-Tessellation parse_obj(const std::string& text, const std::string& name) {
+// An OBJ file as read: positions and normals in file order, and the corners of the faces.
+struct ObjRecords {
   std::vector<Vec3> positions, normals;
   std::vector<std::pair<long, long>> corners;  // (position index, normal index or -1), 0-based
   std::vector<size_t> face_sizes;
+};
+
+// The rest of a "v" or "vn" line: 3 finite numbers.
+void read_obj_vector(std::istringstream& s, const std::string& tag, ObjRecords& obj, const std::string& name,
+                     size_t line_no) {
+  double c[3];
+  std::string f;
+  for (double& x : c) {
+    if (!(s >> f) || !to_double(f, x)) fail(name, line_no, "'" + tag + "' needs 3 finite numbers");
+  }
+  (tag == "v" ? obj.positions : obj.normals).emplace_back(c[0], c[1], c[2]);
+}
+
+// The rest of an "f" line: at least 3 corners "v", "v/t", "v//n" or "v/t/n", each index of a
+// position or normal read so far (negative: counted back from the last one).
+void read_obj_face(std::istringstream& s, ObjRecords& obj, const std::string& name, size_t line_no) {
+  size_t count = 0;
+  std::string corner;
+  while (s >> corner) {
+    const size_t s1 = corner.find('/');
+    const size_t s2 = s1 == std::string::npos ? std::string::npos : corner.find('/', s1 + 1);
+    long vi, ni = 0;
+    if (!to_long(corner.substr(0, s1), vi)) fail(name, line_no, "bad face corner '" + corner + "'");
+    if (s2 != std::string::npos && s2 + 1 < corner.size() && !to_long(corner.substr(s2 + 1), ni)) {
+      fail(name, line_no, "bad normal index in '" + corner + "'");
+    }
+    const long nv = static_cast<long>(obj.positions.size()), nn = static_cast<long>(obj.normals.size());
+    if (vi < 0) vi += nv + 1;
+    if (vi < 1 || vi > nv) {
+      fail(name, line_no,
+           "vertex index " + corner.substr(0, s1) + " is out of range (" + std::to_string(nv) + " vertices so far)");
+    }
+    if (ni < 0) ni += nn + 1;
+    if (ni != 0 && (ni < 1 || ni > nn)) fail(name, line_no, "normal index in '" + corner + "' is out of range");
+    obj.corners.emplace_back(vi - 1, ni - 1);
+    ++count;
+  }
+  if (count < 3) fail(name, line_no, "a face needs at least 3 vertices");
+  obj.face_sizes.push_back(count);
+}
+
+// Reads the "v", "vn" and "f" lines; other lines, '#' comments and blank lines are skipped.
+ObjRecords read_obj_records(const std::string& text, const std::string& name) {
+  ObjRecords obj;
   size_t line_no = 0, pos = 0;
   while (pos < text.size()) {
     const size_t end = text.find('\n', pos);
@@ -67,41 +112,22 @@ Tessellation parse_obj(const std::string& text, const std::string& name) {
     std::string tag;
     if (!(s >> tag)) continue;
     if (tag == "v" || tag == "vn") {
-      double c[3];
-      std::string f;
-      for (double& x : c) {
-        if (!(s >> f) || !to_double(f, x)) fail(name, line_no, "'" + tag + "' needs 3 finite numbers");
-      }
-      (tag == "v" ? positions : normals).emplace_back(c[0], c[1], c[2]);
+      read_obj_vector(s, tag, obj, name, line_no);
     } else if (tag == "f") {
-      size_t count = 0;
-      std::string corner;
-      while (s >> corner) {
-        const size_t s1 = corner.find('/');
-        const size_t s2 = s1 == std::string::npos ? std::string::npos : corner.find('/', s1 + 1);
-        long vi, ni = 0;
-        if (!to_long(corner.substr(0, s1), vi)) fail(name, line_no, "bad face corner '" + corner + "'");
-        if (s2 != std::string::npos && s2 + 1 < corner.size() && !to_long(corner.substr(s2 + 1), ni)) {
-          fail(name, line_no, "bad normal index in '" + corner + "'");
-        }
-        const long nv = static_cast<long>(positions.size()), nn = static_cast<long>(normals.size());
-        if (vi < 0) vi += nv + 1;
-        if (vi < 1 || vi > nv) {
-          fail(name, line_no, "vertex index " + corner.substr(0, s1) + " is out of range (" + std::to_string(nv) +
-                                  " vertices so far)");
-        }
-        if (ni < 0) ni += nn + 1;
-        if (ni != 0 && (ni < 1 || ni > nn)) fail(name, line_no, "normal index in '" + corner + "' is out of range");
-        corners.emplace_back(vi - 1, ni - 1);
-        ++count;
-      }
-      if (count < 3) fail(name, line_no, "a face needs at least 3 vertices");
-      face_sizes.push_back(count);
+      read_obj_face(s, obj, name, line_no);
     }
   }
-  if (positions.empty()) fail(name, 0, "the mesh has no vertices");
-  // Keep the file's vertex numbering when every corner has a normal and each position has one
-  // normal (or when no corner has one); split a position per distinct normal otherwise (creases).
+  return obj;
+}
+
+// Fills the mesh's positions (and normals, when every corner has one) and returns the mesh vertex
+// of every corner. Keeps the file's vertex numbering when every corner has a normal and each
+// position has one normal (or when no corner has one); splits a position per distinct normal
+// otherwise (creases).
+std::vector<uint32_t> obj_vertices(const ObjRecords& obj, Tessellation& mesh) {
+  const std::vector<Vec3>& positions = obj.positions;
+  const std::vector<Vec3>& normals = obj.normals;
+  const std::vector<std::pair<long, long>>& corners = obj.corners;
   std::vector<long> normal_of(positions.size(), -2);
   bool consistent = true, all_normals = true, any_normal = false;
   for (const auto& [v, n] : corners) {
@@ -110,7 +136,6 @@ Tessellation parse_obj(const std::string& text, const std::string& name) {
     if (normal_of[static_cast<size_t>(v)] == -2) normal_of[static_cast<size_t>(v)] = n;
     consistent &= normal_of[static_cast<size_t>(v)] == n;
   }
-  Tessellation mesh;
   std::vector<uint32_t> ids;
   ids.reserve(corners.size());
   if (consistent && (all_normals || !any_normal)) {
@@ -132,9 +157,17 @@ Tessellation parse_obj(const std::string& text, const std::string& name) {
     }
     if (!all_normals) mesh.normals.clear();
   }
+  return ids;
+}
+
+Tessellation parse_obj(const std::string& text, const std::string& name) {
+  const ObjRecords obj = read_obj_records(text, name);
+  if (obj.positions.empty()) fail(name, 0, "the mesh has no vertices");
+  Tessellation mesh;
+  const std::vector<uint32_t> ids = obj_vertices(obj, mesh);
   size_t at = 0;
   std::vector<uint32_t> poly;
-  for (size_t size : face_sizes) {
+  for (size_t size : obj.face_sizes) {  // fan-triangulated faces, in file order
     poly.assign(ids.begin() + static_cast<long>(at), ids.begin() + static_cast<long>(at + size));
     add_polygon(mesh, poly);
     at += size;
@@ -201,100 +234,130 @@ class PlyValues {
   const std::string& name_;
 };
 
-Tessellation parse_ply(const std::string& text, const std::string& name) {
+// A PLY header: the body's format, the elements in file order and where the body starts.
+struct PlyHeader {
+  int format = -1;  // 0 ascii, 1 binary little endian, 2 binary big endian
+  std::vector<PlyElement> elements;
+  size_t body = 0;  // the first byte after the end_header line
+};
+
+// One header line: "format", "element" and "property" lines are read, other lines skipped.
+void read_ply_header_line(const std::string& line, size_t line_no, PlyHeader& header, const std::string& name) {
+  std::istringstream s(line);
+  std::string tag;
+  s >> tag;
+  if (tag == "format") {
+    std::string f;
+    s >> f;
+    header.format = f == "ascii" ? 0 : f == "binary_little_endian" ? 1 : f == "binary_big_endian" ? 2 : -1;
+    if (header.format < 0) fail(name, line_no, "unknown PLY format '" + f + "'");
+  } else if (tag == "element") {
+    PlyElement e;
+    long count;
+    std::string c;
+    s >> e.name >> c;
+    if (!to_long(c, count) || count < 0) fail(name, line_no, "bad element count");
+    e.count = static_cast<size_t>(count);
+    header.elements.push_back(e);
+  } else if (tag == "property") {
+    if (header.elements.empty()) fail(name, line_no, "property before any element");
+    PlyProperty p;
+    s >> p.type;
+    if (p.type == "list") s >> p.count_type >> p.type;
+    s >> p.name;
+    if (!ply_type_size(p.type) || (!p.count_type.empty() && !ply_type_size(p.count_type))) {
+      fail(name, line_no, "unknown property type in '" + line + "'");
+    }
+    header.elements.back().props.push_back(p);
+  }
+}
+
+// The header: from "ply" at the start of the file to the end_header line, with a format line.
+PlyHeader read_ply_header(const std::string& text, const std::string& name) {
   const size_t header_end = text.find("end_header");
   if (text.compare(0, 3, "ply") != 0 || header_end == std::string::npos) fail(name, 1, "not a PLY file (no header)");
-  std::istringstream header(text.substr(0, header_end));
-  std::vector<PlyElement> elements;
-  int format = -1;
+  std::istringstream lines(text.substr(0, header_end));
+  PlyHeader header;
   std::string line;
   size_t line_no = 0;
-  while (std::getline(header, line)) {
-    ++line_no;
-    std::istringstream s(line);
-    std::string tag;
-    s >> tag;
-    if (tag == "format") {
-      std::string f;
-      s >> f;
-      format = f == "ascii" ? 0 : f == "binary_little_endian" ? 1 : f == "binary_big_endian" ? 2 : -1;
-      if (format < 0) fail(name, line_no, "unknown PLY format '" + f + "'");
-    } else if (tag == "element") {
-      PlyElement e;
-      long count;
-      std::string c;
-      s >> e.name >> c;
-      if (!to_long(c, count) || count < 0) fail(name, line_no, "bad element count");
-      e.count = static_cast<size_t>(count);
-      elements.push_back(e);
-    } else if (tag == "property") {
-      if (elements.empty()) fail(name, line_no, "property before any element");
-      PlyProperty p;
-      s >> p.type;
-      if (p.type == "list") s >> p.count_type >> p.type;
-      s >> p.name;
-      if (!ply_type_size(p.type) || (!p.count_type.empty() && !ply_type_size(p.count_type))) {
-        fail(name, line_no, "unknown property type in '" + line + "'");
-      }
-      elements.back().props.push_back(p);
-    }
-  }
-  if (format < 0) fail(name, 0, "PLY header has no format line");
+  while (std::getline(lines, line)) read_ply_header_line(line, ++line_no, header, name);
+  if (header.format < 0) fail(name, 0, "PLY header has no format line");
   size_t body = text.find('\n', header_end);
-  body = body == std::string::npos ? text.size() : body + 1;
-  PlyValues values(text, body, format, name);
-  Tessellation mesh;
-  bool has_normals = false;
-  for (const PlyElement& e : elements) {
-    if (e.count > text.size()) fail(name, 0, "element " + e.name + " count " + std::to_string(e.count) + " exceeds the file size");
-    const bool vertex = e.name == "vertex", face = e.name == "face";
-    if (vertex) {
-      auto has = [&](const char* n) {
-        return std::any_of(e.props.begin(), e.props.end(), [&](const PlyProperty& p) { return p.name == n; });
-      };
-      if (!has("x") || !has("y") || !has("z")) fail(name, 0, "vertex element lacks x, y or z");
-      has_normals = has("nx") && has("ny") && has("nz");
-    }
-    for (size_t k = 0; k < e.count; ++k) {
-      Vec3 p(0.0), n(0.0);
-      for (const PlyProperty& prop : e.props) {
-        if (!prop.count_type.empty()) {
-          const double cnt = values.next(prop.count_type);
-          if (cnt < 0 || cnt > 1e6) fail(name, 0, "bad list length in element " + e.name);
-          std::vector<uint32_t> poly;
-          for (int q = 0; q < static_cast<int>(cnt); ++q) {
-            const double idx = values.next(prop.type);
-            if (face && (prop.name == "vertex_indices" || prop.name == "vertex_index")) {
-              if (idx < 0 || idx >= static_cast<double>(mesh.positions.size())) {
-                fail(name, 0, "face " + std::to_string(k) + " has vertex index " + std::to_string(static_cast<long>(idx)) +
-                                  " out of range (" + std::to_string(mesh.positions.size()) + " vertices)");
-              }
-              poly.push_back(static_cast<uint32_t>(idx));
-            }
-          }
-          if (face && (prop.name == "vertex_indices" || prop.name == "vertex_index")) {
-            if (poly.size() < 3) fail(name, 0, "face " + std::to_string(k) + " has fewer than 3 vertices");
-            add_polygon(mesh, poly);
-          }
-          continue;
-        }
-        const double x = values.next(prop.type);
-        if (!std::isfinite(x)) fail(name, 0, "a " + e.name + " property is not finite");
-        if (vertex) {
-          if (prop.name == "x") p.x = x;
-          if (prop.name == "y") p.y = x;
-          if (prop.name == "z") p.z = x;
-          if (prop.name == "nx") n.x = x;
-          if (prop.name == "ny") n.y = x;
-          if (prop.name == "nz") n.z = x;
-        }
+  header.body = body == std::string::npos ? text.size() : body + 1;
+  return header;
+}
+
+// A list property of record k of element e: a face's vertex_indices (or vertex_index) become a
+// fan of triangles over the vertices read so far; any other list is read and dropped.
+void read_ply_list(const PlyElement& e, const PlyProperty& prop, size_t k, PlyValues& values, Tessellation& mesh,
+                   const std::string& name) {
+  const bool indices = e.name == "face" && (prop.name == "vertex_indices" || prop.name == "vertex_index");
+  const double cnt = values.next(prop.count_type);
+  if (cnt < 0 || cnt > 1e6) fail(name, 0, "bad list length in element " + e.name);
+  std::vector<uint32_t> poly;
+  for (int q = 0; q < static_cast<int>(cnt); ++q) {
+    const double idx = values.next(prop.type);
+    if (indices) {
+      if (idx < 0 || idx >= static_cast<double>(mesh.positions.size())) {
+        fail(name, 0,
+             "face " + std::to_string(k) + " has vertex index " + std::to_string(static_cast<long>(idx)) +
+                 " out of range (" + std::to_string(mesh.positions.size()) + " vertices)");
       }
-      if (vertex) {
-        mesh.positions.push_back(p);
-        if (has_normals) mesh.normals.push_back(n);
-      }
+      poly.push_back(static_cast<uint32_t>(idx));
     }
   }
+  if (indices) {
+    if (poly.size() < 3) fail(name, 0, "face " + std::to_string(k) + " has fewer than 3 vertices");
+    add_polygon(mesh, poly);
+  }
+}
+
+// The records of one element: a vertex appends its position (x, y, z required) and, when the
+// element has nx, ny and nz, its normal; faces append triangles; other elements are read and dropped.
+void read_ply_element(const PlyElement& e, size_t text_size, PlyValues& values, Tessellation& mesh,
+                      const std::string& name) {
+  if (e.count > text_size) {
+    fail(name, 0, "element " + e.name + " count " + std::to_string(e.count) + " exceeds the file size");
+  }
+  const bool vertex = e.name == "vertex";
+  bool has_normals = false;
+  if (vertex) {
+    auto has = [&](const char* n) {
+      return std::any_of(e.props.begin(), e.props.end(), [&](const PlyProperty& p) { return p.name == n; });
+    };
+    if (!has("x") || !has("y") || !has("z")) fail(name, 0, "vertex element lacks x, y or z");
+    has_normals = has("nx") && has("ny") && has("nz");
+  }
+  for (size_t k = 0; k < e.count; ++k) {
+    Vec3 p(0.0), n(0.0);
+    for (const PlyProperty& prop : e.props) {
+      if (!prop.count_type.empty()) {
+        read_ply_list(e, prop, k, values, mesh, name);
+        continue;
+      }
+      const double x = values.next(prop.type);
+      if (!std::isfinite(x)) fail(name, 0, "a " + e.name + " property is not finite");
+      if (vertex) {
+        if (prop.name == "x") p.x = x;
+        if (prop.name == "y") p.y = x;
+        if (prop.name == "z") p.z = x;
+        if (prop.name == "nx") n.x = x;
+        if (prop.name == "ny") n.y = x;
+        if (prop.name == "nz") n.z = x;
+      }
+    }
+    if (vertex) {
+      mesh.positions.push_back(p);
+      if (has_normals) mesh.normals.push_back(n);
+    }
+  }
+}
+
+Tessellation parse_ply(const std::string& text, const std::string& name) {
+  const PlyHeader header = read_ply_header(text, name);
+  PlyValues values(text, header.body, header.format, name);
+  Tessellation mesh;
+  for (const PlyElement& e : header.elements) read_ply_element(e, text.size(), values, mesh, name);
   require_faces(mesh, name);
   return mesh;
 }

@@ -287,163 +287,261 @@ bool mirrors(const glm::dmat4& m) {
   return unit_columns(m, unit) && glm::determinant(unit) < 0.0;
 }
 
-}  // namespace
-
-Model detail::parse_rib(const std::string& text, const std::string& name) {
-  RibLexer lex(text, name);
-  // Orientation (RenderMan Interface Specification 3.2, section 4.2.14): the initial coordinate
-  // system is left-handed and so is the initial current orientation; a transform with a negative
-  // determinant flips both, so whether they match changes only by ReverseOrientation and
-  // Orientation. Where they match, the outside normal is dPdu x dPdv computed in object
-  // coordinates; it is flipped where they do not.
-  struct State {
-    glm::dmat4 ctm{1.0};
-    bool orientation_matches = true;
-  };
-  std::vector<State> stack;
-  glm::dmat4 ctm(1.0);
+// Orientation (RenderMan Interface Specification 3.2, section 4.2.14): the initial coordinate
+// system is left-handed and so is the initial current orientation; a transform with a negative
+// determinant flips both, so whether they match changes only by ReverseOrientation and
+// Orientation. Where they match, the outside normal is dPdu x dPdv computed in object
+// coordinates; it is flipped where they do not.
+struct RibState {
+  glm::dmat4 ctm{1.0};
   bool orientation_matches = true;
-  Model model;
-  model.name = name;
-  RibToken tok = lex.next();
+};
 
-  // Reads the numbers that follow a request, either bare or in one bracketed array.
-  auto numbers = [&](size_t expected, const std::string& request, size_t line) {
+// One request: its name and the line it starts on (where its problems are reported).
+struct RibRequest {
+  std::string name;
+  size_t line = 0;
+};
+
+// The statement reader: the current token, and the numbers that follow a request.
+struct RibInput {
+  RibInput(const std::string& text, const std::string& file) : lex(text, file), name(file), tok(lex.next()) {}
+  void advance() { tok = lex.next(); }
+
+  // Reads the numbers that follow a request, either bare or in one bracketed array; with
+  // `expected` non-zero, any other count is refused (after the array is read).
+  std::vector<double> numbers(size_t expected, const std::string& request, size_t line) {
     std::vector<double> out;
-    tok = lex.next();
+    advance();
     const bool bracket = tok.kind == RibToken::kOpen;
-    if (bracket) tok = lex.next();
+    if (bracket) advance();
     while (tok.kind == RibToken::kNumber) {
       out.push_back(tok.number);
-      tok = lex.next();
+      advance();
     }
     if (bracket) {
       if (tok.kind != RibToken::kClose) fail(name, tok.line, request + ": missing ']'");
-      tok = lex.next();
+      advance();
     }
     if (expected && out.size() != expected) {
       fail(name, line, request + " needs " + std::to_string(expected) + " numbers, got " + std::to_string(out.size()));
     }
     return out;
-  };
+  }
 
-  while (tok.kind != RibToken::kEnd) {
-    if (tok.kind != RibToken::kIdent) {  // parameters of a skipped request
-      tok = lex.next();
-      continue;
+  RibLexer lex;
+  const std::string& name;
+  RibToken tok;  // the current token
+};
+
+// What the requests build: the graphics state, the states saved by the open Begin requests, the patches.
+struct RibScene {
+  RibState state;
+  std::vector<RibState> stack;
+  Model model;
+};
+
+// TransformBegin/AttributeBegin save the state; TransformEnd restores the transformation and
+// AttributeEnd also the orientation (an attribute).
+void block_request(RibInput& in, const RibRequest& req, RibScene& scene) {
+  const std::string& r = req.name;
+  if (r == "TransformBegin" || r == "AttributeBegin") {
+    if (scene.stack.size() > 10000) fail(in.name, req.line, r + " nested more than 10000 deep");
+    scene.stack.push_back(scene.state);
+  } else {
+    if (scene.stack.empty()) fail(in.name, req.line, r + " without a matching Begin");
+    scene.state.ctm = scene.stack.back().ctm;
+    if (r == "AttributeEnd") scene.state.orientation_matches = scene.stack.back().orientation_matches;  // an attribute
+    scene.stack.pop_back();
+  }
+  in.advance();
+}
+
+// Every transform request leaves a regular current transformation, or the file is refused.
+void set_ctm(const RibInput& in, const RibRequest& req, RibState& state, const glm::dmat4& m) {
+  if (singular(m)) fail(in.name, req.line, req.name + " makes the transformation singular (or not finite)");
+  state.ctm = m;
+}
+
+// Identity, Translate, Scale, Rotate, ConcatTransform and Transform.
+void transform_request(RibInput& in, const RibRequest& req, RibState& state) {
+  const std::string& r = req.name;
+  const glm::dmat4& ctm = state.ctm;
+  if (r == "Identity") {
+    state.ctm = glm::dmat4(1.0);
+    in.advance();
+  } else if (r == "Translate") {
+    const auto v = in.numbers(3, r, req.line);
+    set_ctm(in, req, state, glm::translate(ctm, Vec3(v[0], v[1], v[2])));
+  } else if (r == "Scale") {
+    const auto v = in.numbers(3, r, req.line);
+    if (v[0] == 0.0 || v[1] == 0.0 || v[2] == 0.0) {
+      fail(in.name, req.line, "Scale by zero makes the transformation singular");
     }
-    const std::string req = tok.text;
-    const size_t line = tok.line;
-    // Every transform request leaves a regular current transformation, or the file is refused.
-    auto set_ctm = [&](const glm::dmat4& m) {
-      if (singular(m)) fail(name, line, req + " makes the transformation singular (or not finite)");
-      ctm = m;
-    };
-    if (req == "TransformBegin" || req == "AttributeBegin") {
-      if (stack.size() > 10000) fail(name, line, req + " nested more than 10000 deep");
-      stack.push_back({ctm, orientation_matches});
-      tok = lex.next();
-    } else if (req == "TransformEnd" || req == "AttributeEnd") {
-      if (stack.empty()) fail(name, line, req + " without a matching Begin");
-      ctm = stack.back().ctm;
-      if (req == "AttributeEnd") orientation_matches = stack.back().orientation_matches;  // an attribute
-      stack.pop_back();
-      tok = lex.next();
-    } else if (req == "Identity") {
-      ctm = glm::dmat4(1.0);
-      tok = lex.next();
-    } else if (req == "Translate") {
-      const auto v = numbers(3, req, line);
-      set_ctm(glm::translate(ctm, Vec3(v[0], v[1], v[2])));
-    } else if (req == "Scale") {
-      const auto v = numbers(3, req, line);
-      if (v[0] == 0.0 || v[1] == 0.0 || v[2] == 0.0) fail(name, line, "Scale by zero makes the transformation singular");
-      set_ctm(glm::scale(ctm, Vec3(v[0], v[1], v[2])));
-    } else if (req == "Rotate") {
-      const auto v = numbers(4, req, line);
-      const Vec3 axis(v[1], v[2], v[3]);
-      if (axis == Vec3(0.0)) fail(name, line, "Rotate about a zero axis");
-      set_ctm(glm::rotate(ctm, glm::radians(v[0]), axis));
-    } else if (req == "ConcatTransform" || req == "Transform") {
-      const auto v = numbers(16, req, line);
-      glm::dmat4 m;
-      for (int k = 0; k < 16; ++k) m[k / 4][k % 4] = v[static_cast<size_t>(k)];  // RIB rows are GLM columns
-      if (singular(m)) fail(name, line, req + " matrix is singular");
-      set_ctm(req == "Transform" ? m : ctm * m);  // Transform replaces the current transformation
-    } else if (req == "ReverseOrientation") {
-      orientation_matches = !orientation_matches;
-      tok = lex.next();
-    } else if (req == "Orientation") {
-      tok = lex.next();
-      const bool left_handed_system = !mirrors(ctm);  // the initial system is left-handed
-      if (tok.kind == RibToken::kString && tok.text == "outside") orientation_matches = true;
-      else if (tok.kind == RibToken::kString && tok.text == "inside") orientation_matches = false;
-      else if (tok.kind == RibToken::kString && tok.text == "lh") orientation_matches = left_handed_system;
-      else if (tok.kind == RibToken::kString && tok.text == "rh") orientation_matches = !left_handed_system;
-      else fail(name, line, "Orientation must be \"outside\", \"inside\", \"lh\" or \"rh\"");
-      tok = lex.next();
-    } else if (req == "ObjectBegin" || req == "ObjectInstance" || req == "MotionBegin" || req == "Skew" ||
-               req == "Perspective" || req == "CoordSysTransform" || req == "ReadArchive" || req == "Procedural") {
-      fail(name, line, req + " is not supported (it would place or add geometry this reader cannot follow)");
-    } else if (req == "Basis") {
-      tok = lex.next();
-      if (tok.kind != RibToken::kString || tok.text != "bezier") fail(name, line, "only Basis \"bezier\" is supported");
-      tok = lex.next();
-      if (tok.kind == RibToken::kNumber) tok = lex.next();
-      if (tok.kind != RibToken::kString || tok.text != "bezier") fail(name, line, "only Basis \"bezier\" is supported");
-      tok = lex.next();
-      if (tok.kind == RibToken::kNumber) tok = lex.next();
-    } else if (req == "Patch") {
-      tok = lex.next();
-      if (tok.kind != RibToken::kString) fail(name, line, "Patch needs a type string");
-      const std::string type = tok.text;
-      int degree;
-      if (type == "bicubic") degree = 3;
-      else if (type == "bilinear") degree = 1;
-      else fail(name, line, "Patch type \"" + excerpt(type) + "\" is not supported (bicubic, bilinear)");
-      tok = lex.next();
-      if (tok.kind != RibToken::kString || (tok.text != "P" && tok.text != "Pw")) {
-        fail(name, line, "Patch needs \"P\" or \"Pw\" control points");
+    set_ctm(in, req, state, glm::scale(ctm, Vec3(v[0], v[1], v[2])));
+  } else if (r == "Rotate") {
+    const auto v = in.numbers(4, r, req.line);
+    const Vec3 axis(v[1], v[2], v[3]);
+    if (axis == Vec3(0.0)) fail(in.name, req.line, "Rotate about a zero axis");
+    set_ctm(in, req, state, glm::rotate(ctm, glm::radians(v[0]), axis));
+  } else {  // ConcatTransform or Transform
+    const auto v = in.numbers(16, r, req.line);
+    glm::dmat4 m;
+    for (int k = 0; k < 16; ++k) m[k / 4][k % 4] = v[static_cast<size_t>(k)];  // RIB rows are GLM columns
+    if (singular(m)) fail(in.name, req.line, r + " matrix is singular");
+    set_ctm(in, req, state, r == "Transform" ? m : ctm * m);  // Transform replaces the current transformation
+  }
+}
+
+// ReverseOrientation and Orientation "outside" | "inside" | "lh" | "rh".
+void orientation_request(RibInput& in, const RibRequest& req, RibState& state) {
+  if (req.name == "ReverseOrientation") {
+    state.orientation_matches = !state.orientation_matches;
+    in.advance();
+    return;
+  }
+  in.advance();
+  const RibToken& tok = in.tok;
+  const bool left_handed_system = !mirrors(state.ctm);  // the initial system is left-handed
+  if (tok.kind == RibToken::kString && tok.text == "outside") {
+    state.orientation_matches = true;
+  } else if (tok.kind == RibToken::kString && tok.text == "inside") {
+    state.orientation_matches = false;
+  } else if (tok.kind == RibToken::kString && tok.text == "lh") {
+    state.orientation_matches = left_handed_system;
+  } else if (tok.kind == RibToken::kString && tok.text == "rh") {
+    state.orientation_matches = !left_handed_system;
+  } else {
+    fail(in.name, req.line, "Orientation must be \"outside\", \"inside\", \"lh\" or \"rh\"");
+  }
+  in.advance();
+}
+
+// Basis "bezier" [step] "bezier" [step]: the only basis accepted.
+void basis_request(RibInput& in, const RibRequest& req) {
+  in.advance();
+  if (in.tok.kind != RibToken::kString || in.tok.text != "bezier") {
+    fail(in.name, req.line, "only Basis \"bezier\" is supported");
+  }
+  in.advance();
+  if (in.tok.kind == RibToken::kNumber) in.advance();
+  if (in.tok.kind != RibToken::kString || in.tok.text != "bezier") {
+    fail(in.name, req.line, "only Basis \"bezier\" is supported");
+  }
+  in.advance();
+  if (in.tok.kind == RibToken::kNumber) in.advance();
+}
+
+// The control points of one Patch request as read: u varies fastest; 3 numbers a point, 4 with "Pw".
+struct RibPatchPoints {
+  int degree = 0;
+  bool homogeneous = false;
+  std::vector<double> v;
+};
+
+// Patch "bicubic" | "bilinear", "P" | "Pw", then the points.
+RibPatchPoints read_patch_points(RibInput& in, const RibRequest& req) {
+  in.advance();
+  if (in.tok.kind != RibToken::kString) fail(in.name, req.line, "Patch needs a type string");
+  const std::string type = in.tok.text;
+  RibPatchPoints points;
+  if (type == "bicubic") {
+    points.degree = 3;
+  } else if (type == "bilinear") {
+    points.degree = 1;
+  } else {
+    fail(in.name, req.line, "Patch type \"" + excerpt(type) + "\" is not supported (bicubic, bilinear)");
+  }
+  in.advance();
+  if (in.tok.kind != RibToken::kString || (in.tok.text != "P" && in.tok.text != "Pw")) {
+    fail(in.name, req.line, "Patch needs \"P\" or \"Pw\" control points");
+  }
+  points.homogeneous = in.tok.text == "Pw";
+  const size_t count = static_cast<size_t>((points.degree + 1) * (points.degree + 1));
+  points.v = in.numbers(count * (points.homogeneous ? 4 : 3), "Patch \"" + type + "\"", req.line);
+  return points;
+}
+
+// The patch in world coordinates, oriented so that du x dv points outside.
+BezierPatch patch_request(RibInput& in, const RibRequest& req, const RibState& state) {
+  const RibPatchPoints points = read_patch_points(in, req);
+  const int degree = points.degree;
+  const bool homogeneous = points.homogeneous;
+  const std::vector<double>& v = points.v;
+  const glm::dmat4& ctm = state.ctm;
+  const size_t count = static_cast<size_t>((degree + 1) * (degree + 1));
+  BezierPatch patch;
+  patch.degree_u = patch.degree_v = degree;
+  patch.points.resize(count);
+  if (homogeneous) patch.weights.resize(count);
+  const int side = degree + 1;
+  // du x dv of the stored patch points outside: reverse u where RenderMan flips the normal
+  // (orientation not matching the coordinate system) or the transform mirrors (determinant < 0).
+  const bool reverse_u = mirrors(ctm) != !state.orientation_matches;
+  for (int j = 0; j < side; ++j) {  // RIB varies u fastest
+    for (int i0 = 0; i0 < side; ++i0) {
+      const int i = reverse_u ? degree - i0 : i0;
+      const size_t k = static_cast<size_t>(j * side + i0);
+      const size_t arity = homogeneous ? 4 : 3;
+      const double w = homogeneous ? v[k * arity + 3] : 1.0;
+      if (!(w > 0.0)) fail(in.name, req.line, "Patch weight must be > 0");
+      const glm::dvec4 p = ctm * glm::dvec4(v[k * arity] / w, v[k * arity + 1] / w, v[k * arity + 2] / w, 1.0);
+      const Vec3 q = Vec3(p) / p.w;
+      if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z)) {
+        fail(in.name, req.line, "Patch control point is not finite after the transform");
       }
-      const bool homogeneous = tok.text == "Pw";
-      const size_t count = static_cast<size_t>((degree + 1) * (degree + 1));
-      const auto v = numbers(count * (homogeneous ? 4 : 3), "Patch \"" + type + "\"", line);
-      BezierPatch patch;
-      patch.degree_u = patch.degree_v = degree;
-      patch.points.resize(count);
-      if (homogeneous) patch.weights.resize(count);
-      const int side = degree + 1;
-      // du x dv of the stored patch points outside: reverse u where RenderMan flips the normal
-      // (orientation not matching the coordinate system) or the transform mirrors (determinant < 0).
-      const bool reverse_u = mirrors(ctm) != !orientation_matches;
-      for (int j = 0; j < side; ++j) {    // RIB varies u fastest
-        for (int i0 = 0; i0 < side; ++i0) {
-          const int i = reverse_u ? degree - i0 : i0;
-          const size_t k = static_cast<size_t>(j * side + i0);
-          const size_t arity = homogeneous ? 4 : 3;
-          const double w = homogeneous ? v[k * arity + 3] : 1.0;
-          if (!(w > 0.0)) fail(name, line, "Patch weight must be > 0");
-          const glm::dvec4 p = ctm * glm::dvec4(v[k * arity] / w, v[k * arity + 1] / w, v[k * arity + 2] / w, 1.0);
-          const Vec3 q = Vec3(p) / p.w;
-          if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z)) {
-            fail(name, line, "Patch control point is not finite after the transform");
-          }
-          patch.at(i, j) = q;
-          if (homogeneous) patch.weights[static_cast<size_t>(i * side + j)] = w;
-        }
-      }
-      model.patches.push_back(std::move(patch));
-    } else if (req == "PatchMesh" || req == "NuPatch") {
-      fail(name, line, req + " is not supported (use Patch \"bicubic\")");
-    } else {
-      tok = lex.next();  // skipped request; its parameters are skipped by the loop
+      patch.at(i, j) = q;
+      if (homogeneous) patch.weights[static_cast<size_t>(i * side + j)] = w;
     }
   }
-  if (!stack.empty()) fail(name, tok.line, std::to_string(stack.size()) + " TransformBegin/AttributeBegin without End");
-  if (model.patches.empty()) fail(name, tok.line, "the file has no Patch requests: the model is empty");
-  validate_model(model, name);
-  normalize_weights(model);
-  return model;
+  return patch;
+}
+
+// Dispatches one request (the current token, an identifier) and leaves the input at the token after it.
+void rib_request(RibInput& in, RibScene& scene) {
+  const RibRequest req{in.tok.text, in.tok.line};
+  const std::string& r = req.name;
+  if (r == "TransformBegin" || r == "AttributeBegin" || r == "TransformEnd" || r == "AttributeEnd") {
+    block_request(in, req, scene);
+  } else if (r == "Identity" || r == "Translate" || r == "Scale" || r == "Rotate" || r == "ConcatTransform" ||
+             r == "Transform") {
+    transform_request(in, req, scene.state);
+  } else if (r == "ReverseOrientation" || r == "Orientation") {
+    orientation_request(in, req, scene.state);
+  } else if (r == "ObjectBegin" || r == "ObjectInstance" || r == "MotionBegin" || r == "Skew" || r == "Perspective" ||
+             r == "CoordSysTransform" || r == "ReadArchive" || r == "Procedural") {
+    fail(in.name, req.line, r + " is not supported (it would place or add geometry this reader cannot follow)");
+  } else if (r == "Basis") {
+    basis_request(in, req);
+  } else if (r == "Patch") {
+    scene.model.patches.push_back(patch_request(in, req, scene.state));
+  } else if (r == "PatchMesh" || r == "NuPatch") {
+    fail(in.name, req.line, r + " is not supported (use Patch \"bicubic\")");
+  } else {
+    in.advance();  // skipped request; its parameters are skipped by the loop
+  }
+}
+
+}  // namespace
+
+Model detail::parse_rib(const std::string& text, const std::string& name) {
+  RibInput in(text, name);
+  RibScene scene;
+  scene.model.name = name;
+  while (in.tok.kind != RibToken::kEnd) {
+    if (in.tok.kind != RibToken::kIdent) {  // parameters of a skipped request
+      in.advance();
+      continue;
+    }
+    rib_request(in, scene);
+  }
+  if (!scene.stack.empty()) {
+    fail(name, in.tok.line, std::to_string(scene.stack.size()) + " TransformBegin/AttributeBegin without End");
+  }
+  if (scene.model.patches.empty()) fail(name, in.tok.line, "the file has no Patch requests: the model is empty");
+  validate_model(scene.model, name);
+  normalize_weights(scene.model);
+  return std::move(scene.model);
 }
 
 Model read_rib(const std::string& path) { return detail::parse_rib(detail::read_text_input(path), path); }

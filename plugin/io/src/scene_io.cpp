@@ -189,14 +189,18 @@ const std::vector<std::string>& scene_fixture_names() {
   return names;
 }
 
-Scene detail::parse_scene(const std::string& text, const std::string& name) {
+namespace {
+
+// The document: an empty file, nesting deeper than SceneScan::kMaxDepth and more than
+// kMaxInstances instances are refused before anything is built; invalid JSON with nlohmann's
+// message on one line.
+Json parse_scene_json(const std::string& text, const std::string& name) {
   if (text.find_first_not_of(" \t\r\n") == std::string::npos) throw InputError(name + ": empty scene file");
-  Json doc;
   try {
     // Deep nesting and too many instances are refused before anything is built.
     SceneScan scan(name);
     Json::sax_parse(text, &scan);
-    doc = Json::parse(text);
+    return Json::parse(text);
   } catch (const Json::exception& e) {
     std::string what = e.what();
     const size_t bracket = what.find("] ");
@@ -206,12 +210,11 @@ Scene detail::parse_scene(const std::string& text, const std::string& name) {
     }
     throw InputError(name + ": not valid JSON: " + what);
   }
-  const Reader top(name, "");
-  top.expect_object(doc, {"models", "instances", "camera", "tolerance_pixels", "scheme", "max_level", "backface_culling",
-                          "description"});
-  Scene scene;
+}
 
-  // models: {"NAME": "SOURCE", ...}
+// models: {"NAME": "SOURCE", ...}, each source non-empty, a known fixture or a file.
+std::vector<SceneModel> read_models(const Json& doc, const Reader& top) {
+  std::vector<SceneModel> out;
   const Reader models = top.field("models");
   const Json& mj = top.require(doc, "models");
   if (!mj.is_object() || mj.empty()) models.fail("expected a non-empty object {\"name\": \"source\"}");
@@ -227,10 +230,14 @@ Scene detail::parse_scene(const std::string& text, const std::string& name) {
       }
     }
     if (source == "data:") r.fail("\"data:\" needs a file name");
-    scene.models.push_back({it.key(), source});
+    out.push_back({it.key(), source});
   }
+  return out;
+}
 
-  // instances: [{"model": NAME, transform...}, ...]
+// instances: [{"model": NAME, transform...}, ...], each naming one of `models`.
+std::vector<SceneInstance> read_instances(const Json& doc, const Reader& top, const std::vector<SceneModel>& models) {
+  std::vector<SceneInstance> out;
   const Reader instances = top.field("instances");
   const Json& ij = top.require(doc, "instances");
   if (!ij.is_array() || ij.empty()) instances.fail("expected a non-empty array");
@@ -239,16 +246,19 @@ Scene detail::parse_scene(const std::string& text, const std::string& name) {
     const Reader r = instances.element(i);
     r.expect_object(ij[i], {"model", "transform", "translate", "rotate", "scale"});
     const std::string model = r.field("model").string(r.require(ij[i], "model"));
-    auto found = std::find_if(scene.models.begin(), scene.models.end(), [&](const SceneModel& m) { return m.name == model; });
-    if (found == scene.models.end()) r.field("model").fail("unknown model \"" + model + "\"");
-    scene.instances.push_back({static_cast<size_t>(found - scene.models.begin()), parse_transform(ij[i], r)});
+    auto found = std::find_if(models.begin(), models.end(), [&](const SceneModel& m) { return m.name == model; });
+    if (found == models.end()) r.field("model").fail("unknown model \"" + model + "\"");
+    out.push_back({static_cast<size_t>(found - models.begin()), parse_transform(ij[i], r)});
   }
+  return out;
+}
 
-  // camera
+// camera: every field required; eye and target apart, up not along the view, fov in (0, 180).
+SceneCamera read_camera(const Json& doc, const Reader& top) {
   const Reader camera = top.field("camera");
   const Json& cj = top.require(doc, "camera");
   camera.expect_object(cj, {"eye", "target", "up", "fov_y_degrees", "width", "height"});
-  SceneCamera& cam = scene.camera;
+  SceneCamera cam;
   cam.eye = camera.field("eye").vec3(camera.require(cj, "eye"));
   cam.target = camera.field("target").vec3(camera.require(cj, "target"));
   cam.up = camera.field("up").vec3(camera.require(cj, "up"));
@@ -258,9 +268,15 @@ Scene detail::parse_scene(const std::string& text, const std::string& name) {
   const Vec3 forward = cam.target - cam.eye;
   if (!(glm::length(forward) > 0.0) || !std::isfinite(glm::length(forward))) camera.fail("eye and target coincide");
   const Vec3 side = glm::cross(glm::normalize(forward), cam.up);
-  if (!(glm::length(side) > 1e-9 * glm::length(cam.up))) camera.field("up").fail("must not be zero or parallel to the view direction");
+  if (!(glm::length(side) > 1e-9 * glm::length(cam.up))) {
+    camera.field("up").fail("must not be zero or parallel to the view direction");
+  }
   if (!(cam.fov_y_degrees > 0.0 && cam.fov_y_degrees < 180.0)) camera.field("fov_y_degrees").fail("must be in (0, 180)");
+  return cam;
+}
 
+// tolerance_pixels (required, > 0), then the optional scheme, max_level, backface_culling and description.
+void read_settings(const Json& doc, const Reader& top, Scene& scene) {
   const Reader tolerance = top.field("tolerance_pixels");
   scene.tolerance_pixels = tolerance.number(top.require(doc, "tolerance_pixels"));
   if (!(scene.tolerance_pixels > 0.0)) tolerance.fail("must be > 0");
@@ -280,6 +296,20 @@ Scene detail::parse_scene(const std::string& text, const std::string& name) {
     }
   }
   if (doc.contains("description")) top.field("description").string(doc["description"]);
+}
+
+}  // namespace
+
+Scene detail::parse_scene(const std::string& text, const std::string& name) {
+  const Json doc = parse_scene_json(text, name);
+  const Reader top(name, "");
+  top.expect_object(doc, {"models", "instances", "camera", "tolerance_pixels", "scheme", "max_level",
+                          "backface_culling", "description"});
+  Scene scene;
+  scene.models = read_models(doc, top);
+  scene.instances = read_instances(doc, top, scene.models);
+  scene.camera = read_camera(doc, top);
+  read_settings(doc, top, scene);
   return scene;
 }
 
