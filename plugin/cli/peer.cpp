@@ -31,38 +31,82 @@ nlohmann::json peer_interval_json(const DistanceInterval& d) {
   return {{"lower", d.lower}, {"upper", finite_or_null(d.upper)}, {"upper_certified", d.certified}};
 }
 
-void run_peer_occt(const PeerCliOptions& o) {
+// Checks the outputs and --max-depth (InputError) and returns the options for OCCT's mesher and our validator.
+occt::PeerOptions peer_options(const PeerCliOptions& o) {
   check_outputs({{"--out", o.out}, {"--json", o.json}}, {o.input});
   if (o.max_depth < 0 || o.max_depth > 10) throw InputError("--max-depth must be in 0..10");
-  const Stopwatch total;
   occt::PeerOptions options;
   options.deflection = o.deflection;
   options.angle = o.angle;
   options.relative = o.relative;
   options.certify.max_depth = o.max_depth;
   options.reference_segments = o.reference_segments;
-  nlohmann::json doc;
-  doc["input"] = o.input.empty() ? "default" : o.input;
+  return options;
+}
+
+// The input's patch model and OCCT's mesh of it, already certified against the model by the OCCT adapter.
+struct PeerMesh {
   Model model;
-  occt::PeerResult r;
+  occt::PeerResult result;
+};
+
+// Loads the input (a CAD file or a patch file) and meshes it with OCCT; `doc` receives the input's name
+// and, for a CAD file, its conversion counts.
+PeerMesh mesh_with_occt(const PeerCliOptions& o, const occt::PeerOptions& options, nlohmann::json& doc) {
+  doc["input"] = o.input.empty() ? "default" : o.input;
+  PeerMesh peer;
   if (occt::is_cad_file(o.input)) {
     const occt::CadModel cad = occt::read_cad_file(o.input);
     doc.update(cad_json(cad));
-    model = cad.model;
-    r = occt::peer_mesh_cad_file(o.input, options);
+    peer.model = cad.model;
+    peer.result = occt::peer_mesh_cad_file(o.input, options);
   } else {
-    model = load_model(o.input);
-    model.name = o.input.empty() ? "default" : o.input;
-    r = occt::peer_mesh_model(model, options);
+    peer.model = load_model(o.input);
+    peer.model.name = o.input.empty() ? "default" : o.input;
+    peer.result = occt::peer_mesh_model(peer.model, options);
   }
-  const Topology topology = build_topology(model);
-  const TopologyReport topo = check_mesh_topology(r.mesh, &model, &topology);
+  return peer;
+}
 
+// OCCT's mesh checked against the model's patch topology (cracks, T-junctions, ...).
+TopologyReport check_peer_topology(const PeerMesh& peer) {
+  const Topology topology = build_topology(peer.model);
+  return check_mesh_topology(peer.result.mesh, &peer.model, &topology);
+}
+
+// Trimmed faces, each measured against the face restricted to its trimmed domain (docs/CAD.md).
+nlohmann::json trimmed_faces_json(const occt::PeerResult& r) {
+  nlohmann::json faces = nlohmann::json::array();
+  for (const occt::TrimmedFacePeer& t : r.trimmed) {
+    nlohmann::json f = {
+        {"name", t.name}, {"validated", t.validated}, {"triangles", t.triangles}, {"reasons", t.reasons}};
+    if (t.validated) {
+      f["pieces"] = t.pieces;
+      f["triangles_outside_domain"] = t.triangles_outside;
+      f["uv_area"] = t.uv_area;
+      f["domain_area"] = t.domain_area;
+      f["hausdorff"] = peer_interval_json(t.distance.hausdorff);
+      f["mesh_to_face"] = peer_interval_json(t.distance.mesh_to_surface);
+      f["face_to_mesh"] = peer_interval_json(t.distance.surface_to_mesh);
+    }
+    faces.push_back(f);
+  }
+  return {{"count", r.trimmed.size()},
+          {"validated", r.trimmed_validated},
+          {"upper_certified", r.trimmed_hausdorff.certified},
+          {"interval", peer_interval_json(r.trimmed_hausdorff)},
+          {"seconds", r.trimmed_seconds},
+          {"faces", faces}};
+}
+
+// Adds the mesher, the mesh's counts, its certified distances and its topology to the report `doc`.
+void add_peer_json(nlohmann::json& doc, const PeerCliOptions& o, const PeerMesh& peer, const TopologyReport& topo) {
+  const occt::PeerResult& r = peer.result;
   doc["mesher"] = "BRepMesh_IncrementalMesh (OCCT " + occt::occt_version() + ")";
   doc["deflection"] = o.deflection;
   doc["angle"] = o.angle;
   doc["relative"] = o.relative;
-  doc["patches"] = model.patches.size();
+  doc["patches"] = peer.model.patches.size();
   doc["triangles"] = r.triangles;
   doc["triangles_validated"] = r.triangles_validated;
   doc["vertices"] = r.mesh.positions.size();
@@ -80,40 +124,16 @@ void run_peer_occt(const PeerCliOptions& o) {
   if (!r.distance.coverage_note.empty()) doc["coverage_note"] = r.distance.coverage_note;
   if (!r.distance.not_certified_reason.empty()) doc["not_certified_reason"] = r.distance.not_certified_reason;
   doc["validate_seconds"] = r.validate_seconds;
-  if (!r.trimmed.empty()) {
-    // Trimmed faces, each measured against the face restricted to its trimmed domain (docs/CAD.md).
-    nlohmann::json faces = nlohmann::json::array();
-    for (const occt::TrimmedFacePeer& t : r.trimmed) {
-      nlohmann::json f = {{"name", t.name}, {"validated", t.validated}, {"triangles", t.triangles}, {"reasons", t.reasons}};
-      if (t.validated) {
-        f["pieces"] = t.pieces;
-        f["triangles_outside_domain"] = t.triangles_outside;
-        f["uv_area"] = t.uv_area;
-        f["domain_area"] = t.domain_area;
-        f["hausdorff"] = peer_interval_json(t.distance.hausdorff);
-        f["mesh_to_face"] = peer_interval_json(t.distance.mesh_to_surface);
-        f["face_to_mesh"] = peer_interval_json(t.distance.surface_to_mesh);
-      }
-      faces.push_back(f);
-    }
-    doc["trimmed_faces"] = {{"count", r.trimmed.size()},
-                            {"validated", r.trimmed_validated},
-                            {"upper_certified", r.trimmed_hausdorff.certified},
-                            {"interval", peer_interval_json(r.trimmed_hausdorff)},
-                            {"seconds", r.trimmed_seconds},
-                            {"faces", faces}};
-  }
+  if (!r.trimmed.empty()) doc["trimmed_faces"] = trimmed_faces_json(r);
   doc["topology"] = {{"open_edges", topo.open_edges},     {"model_boundary_edges", topo.model_boundary_edges},
                      {"crack_edges", topo.crack_edges},   {"t_junctions", topo.t_junctions},
                      {"non_manifold_edges", topo.non_manifold_edges},
                      {"inconsistent_orientation_edges", topo.inconsistent_orientation_edges},
                      {"degenerate_triangles", topo.degenerate_triangles}};
-  if (!o.out.empty()) {
-    io::write_mesh(r.mesh, o.out);
-    doc["output"] = o.out;
-  }
-  doc["total_seconds"] = total.seconds();
-  if (!o.json.empty()) write_json(o.json, doc);
+}
+
+// The one-line summary on stdout.
+void print_peer_summary(const PeerCliOptions& o, const occt::PeerResult& r, const TopologyReport& topo) {
   std::cout << "occt: deflection " << o.deflection << ", angle " << o.angle << ": " << r.triangles << " triangles in "
             << r.mesh_seconds << " s; hausdorff in [" << r.distance.hausdorff.lower << ", " << r.distance.hausdorff.upper << "]"
             << (r.distance.hausdorff.certified ? "" : " (upper not certified)") << " (" << r.route << " route"
@@ -123,6 +143,23 @@ void run_peer_occt(const PeerCliOptions& o) {
                                         " validated, per-face max in [" + std::to_string(r.trimmed_hausdorff.lower) + ", " +
                                         (r.trimmed_hausdorff.certified ? std::to_string(r.trimmed_hausdorff.upper) : std::string("not certified")) + "]")
             << "); cracks " << topo.crack_edges << ", T-junctions " << topo.t_junctions << "\n";
+}
+
+// Checks the options, meshes and certifies, checks the topology, then writes --out, --json and the summary.
+void run_peer_occt(const PeerCliOptions& o) {
+  const occt::PeerOptions options = peer_options(o);
+  const Stopwatch total;
+  nlohmann::json doc;
+  const PeerMesh peer = mesh_with_occt(o, options, doc);
+  const TopologyReport topo = check_peer_topology(peer);
+  add_peer_json(doc, o, peer, topo);
+  if (!o.out.empty()) {
+    io::write_mesh(peer.result.mesh, o.out);
+    doc["output"] = o.out;
+  }
+  doc["total_seconds"] = total.seconds();
+  if (!o.json.empty()) write_json(o.json, doc);
+  print_peer_summary(o, peer.result, topo);
 }
 
 }  // namespace

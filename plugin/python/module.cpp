@@ -215,12 +215,9 @@ py::dict cad_dict(const occt::CadModel& cad) {
   return d;
 }
 
-}  // namespace
-
-PYBIND11_MODULE(_sagitta, m) {
-  m.doc() = "Sagitta: tessellate Bézier surfaces and certify the distance to the exact surface";
-  py::register_exception<InputError>(m, "InputError", PyExc_ValueError);
-
+// The Model class and the ways to make one (patch files, .bpt text, the built-in model, copies,
+// Python lists), and its patch topology.
+void bind_model(py::module_& m) {
   py::class_<Model>(m, "Model")
       .def_readonly("name", &Model::name)
       .def_property_readonly("patch_count", [](const Model& model) { return model.patches.size(); })
@@ -243,21 +240,6 @@ PYBIND11_MODULE(_sagitta, m) {
         return "<sagitta.Model '" + model.name + "' with " + std::to_string(model.patches.size()) + " patches>";
       });
 
-  py::class_<Tessellation>(m, "Mesh", "A triangle mesh; meshes made by tessellate() also carry each vertex's (patch, u, v)")
-      .def_property_readonly("positions", [](const Tessellation& t) { return vectors(t.positions); })
-      .def_property_readonly("normals", [](const Tessellation& t) { return vectors(t.normals); })
-      .def_property_readonly("triangles", [](const Tessellation& t) { return triangle_array(t.triangles); })
-      .def_property_readonly("triangle_patch", [](const Tessellation& t) { return t.triangle_patch; })
-      .def_property_readonly("vertex_count", [](const Tessellation& t) { return t.positions.size(); })
-      .def_property_readonly("triangle_count", [](const Tessellation& t) { return t.triangles.size(); })
-      .def_readonly("degenerate_triangles", &Tessellation::degenerate_triangles)
-      .def_property_readonly("has_surface", &Tessellation::has_surface)
-      .def("__repr__", [](const Tessellation& t) {
-        return "<sagitta.Mesh with " + std::to_string(t.positions.size()) + " vertices, " +
-               std::to_string(t.triangles.size()) + " triangles>";
-      });
-
-  m.def("scheme_names", &scheme_names, "The schemes tessellate() accepts, in the CLI's order (uniform, pn, esc)");
   m.def("read_model", &io::read_patch_model, py::arg("path"), "Read a .bpt or .rib patch file");
   m.def("parse_bpt", &io::parse_bpt, py::arg("text"), py::arg("name"), "A patch model from .bpt text; `name` names it in messages");
   m.def("default_model", &fixtures::default_model, "The built-in default model (pillow box + rational torus)");
@@ -282,11 +264,35 @@ PYBIND11_MODULE(_sagitta, m) {
       },
       py::arg("name"), py::arg("patches"),
       "A model from a list of dicts {degree_u, degree_v, points ((du+1)*(dv+1), 3) row-major by u index, weights or None}");
+}
+
+// The Mesh class, meshes from NumPy arrays, and mesh files.
+void bind_mesh(py::module_& m) {
+  py::class_<Tessellation>(m, "Mesh",
+                           "A triangle mesh; meshes made by tessellate() also carry each vertex's (patch, u, v)")
+      .def_property_readonly("positions", [](const Tessellation& t) { return vectors(t.positions); })
+      .def_property_readonly("normals", [](const Tessellation& t) { return vectors(t.normals); })
+      .def_property_readonly("triangles", [](const Tessellation& t) { return triangle_array(t.triangles); })
+      .def_property_readonly("triangle_patch", [](const Tessellation& t) { return t.triangle_patch; })
+      .def_property_readonly("vertex_count", [](const Tessellation& t) { return t.positions.size(); })
+      .def_property_readonly("triangle_count", [](const Tessellation& t) { return t.triangles.size(); })
+      .def_readonly("degenerate_triangles", &Tessellation::degenerate_triangles)
+      .def_property_readonly("has_surface", &Tessellation::has_surface)
+      .def("__repr__", [](const Tessellation& t) {
+        return "<sagitta.Mesh with " + std::to_string(t.positions.size()) + " vertices, " +
+               std::to_string(t.triangles.size()) + " triangles>";
+      });
+
   m.def("mesh_from_arrays", &mesh_from_arrays, py::arg("positions"), py::arg("triangles"),
         "A mesh without surface data (validated through a certified reference tessellation)");
   m.def("read_mesh", &io::read_mesh, py::arg("path"), "Read an .obj, .ply or .stl mesh");
   m.def("write_mesh", [](const Tessellation& mesh, const std::string& path) { io::write_mesh(mesh, path); }, py::arg("mesh"),
         py::arg("path"), "Write .obj, .ply or .stl atomically");
+}
+
+// Tessellation by scheme as `sagitta tessellate` runs it, and the bare uniform kernel.
+void bind_tessellate(py::module_& m) {
+  m.def("scheme_names", &scheme_names, "The schemes tessellate() accepts, in the CLI's order (uniform, pn, esc)");
   m.def(
       "tessellate",
       [](const Model& model, const std::string& scheme, int level, int segments, double threshold, int base_level,
@@ -308,26 +314,6 @@ PYBIND11_MODULE(_sagitta, m) {
       py::arg("pn_variant") = "basic", py::arg("tess_factor") = -1.0, py::arg("max_triangles") = uint64_t{200'000'000},
       "Tessellate with a scheme (uniform | esc | pn), parameters as in `sagitta tessellate`; returns (Mesh, stats "
       "dict)");
-  m.def("validate", &validate, py::arg("model"), py::arg("mesh"), py::arg("max_depth") = 8, py::arg("reference_segments") = 32,
-        "Certified distance intervals (hausdorff, mesh_to_surface, surface_to_mesh) and topology verdict, as in "
-        "`sagitta validate --json`, plus triangle_error (per-triangle certified bound; empty without (u, v))");
-  m.def(
-      "fit",
-      [](const Model& model, const std::string& scheme, double target_error, int max_refinements) {
-        if (!(target_error > 0.0) || !std::isfinite(target_error)) throw InputError("the target error must be a positive number");
-        const Scheme fit_scheme = parse_scheme(scheme);
-        nlohmann::json doc;
-        {
-          py::gil_scoped_release release;
-          FitOptions options;
-          options.max_refinements = max_refinements;
-          doc = app::fit_result_json(fit_to_error(model, build_topology(model), fit_scheme, target_error, options));
-        }
-        return to_python(doc);
-      },
-      py::arg("model"), py::arg("scheme"), py::arg("target_error"), py::arg("max_refinements") = 12,
-      "Fit the scheme's parameters to a certified target error, as `sagitta fit --json` reports it (uniform: "
-      "segments; esc: level and threshold; pn: base_level and level)");
   m.def(
       "tessellate_uniform",
       [](const Model& model, std::optional<int> level, std::optional<int> segments) {
@@ -346,7 +332,38 @@ PYBIND11_MODULE(_sagitta, m) {
       },
       py::arg("model"), py::arg("level") = py::none(), py::arg("segments") = py::none(),
       "Uniform tessellation: positions (N,3), normals (N,3), triangles (M,3), degenerate_triangles, seconds");
+}
 
+// Certified validation, as `sagitta validate --json`.
+void bind_validate(py::module_& m) {
+  m.def("validate", &validate, py::arg("model"), py::arg("mesh"), py::arg("max_depth") = 8, py::arg("reference_segments") = 32,
+        "Certified distance intervals (hausdorff, mesh_to_surface, surface_to_mesh) and topology verdict, as in "
+        "`sagitta validate --json`, plus triangle_error (per-triangle certified bound; empty without (u, v))");
+}
+
+// Fitting a scheme to a certified target error, as `sagitta fit --json`.
+void bind_fit(py::module_& m) {
+  m.def(
+      "fit",
+      [](const Model& model, const std::string& scheme, double target_error, int max_refinements) {
+        if (!(target_error > 0.0) || !std::isfinite(target_error)) throw InputError("the target error must be a positive number");
+        const Scheme fit_scheme = parse_scheme(scheme);
+        nlohmann::json doc;
+        {
+          py::gil_scoped_release release;
+          FitOptions options;
+          options.max_refinements = max_refinements;
+          doc = app::fit_result_json(fit_to_error(model, build_topology(model), fit_scheme, target_error, options));
+        }
+        return to_python(doc);
+      },
+      py::arg("model"), py::arg("scheme"), py::arg("target_error"), py::arg("max_refinements") = 12,
+      "Fit the scheme's parameters to a certified target error, as `sagitta fit --json` reports it (uniform: "
+      "segments; esc: level and threshold; pn: base_level and level)");
+}
+
+// CAD input through the OCCT adapter.
+void bind_cad(py::module_& m) {
   m.def(
       "read_brep_string",
       [](const std::string& text, const std::string& name) {
@@ -370,4 +387,18 @@ PYBIND11_MODULE(_sagitta, m) {
         return cad_dict(cad);
       },
       py::arg("path"), "A .step/.iges/.brep file as {model, faces, ...} through the OCCT adapter");
+}
+
+}  // namespace
+
+// Each class is bound before the functions that take or return it, so that their signatures name it.
+PYBIND11_MODULE(_sagitta, m) {
+  m.doc() = "Sagitta: tessellate Bézier surfaces and certify the distance to the exact surface";
+  py::register_exception<InputError>(m, "InputError", PyExc_ValueError);
+  bind_model(m);
+  bind_mesh(m);
+  bind_tessellate(m);
+  bind_validate(m);
+  bind_fit(m);
+  bind_cad(m);
 }

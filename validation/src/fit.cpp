@@ -266,14 +266,17 @@ void fit_uniform(Runner& run, FitResult& result, const Model& model, const FitOp
 
 // ---- ESC: error = C (L + 1)^-q + A rho^b --------------------------------------------------------
 
-void fit_esc(Runner& run, FitResult& result, const Model& model, const FitOptions& options) {
-  const double target = result.target_error;
-  // Cheap measurements: the floors (rho = 0) at levels 2..4 and the threshold's share at level 3.
+// Cheap measurements: the floors (rho = 0) at levels 2..4 and the threshold's share at level 3.
+std::vector<FitSample> measure_esc(Runner& run) {
   std::vector<FitSample> measured;
   for (int level : {2, 3, 4}) measured.push_back(run.measure(Setting{level, 0.0}, "measure"));
   const double floor3 = measured[1].certified_error;
   for (double k : {0.5, 1.0, 2.0, 4.0}) measured.push_back(run.measure(Setting{3, k * floor3}, "measure"));
+  return measured;
+}
 
+// The joint model of all levels, fitted to the measurements with Ceres.
+FittedModel fit_esc_joint(const std::vector<FitSample>& measured) {
   double log_c = std::log(measured.front().certified_error) + 2.0 * std::log(2.0), q = 2.0;
   double log_a = 0.0, b = 1.0;
   ceres::Problem problem;
@@ -296,10 +299,12 @@ void fit_esc(Runner& run, FitResult& result, const Model& model, const FitOption
   for (const FitSample& s : measured) {
     joint.residuals.push_back(std::log(s.certified_error) - std::log(joint.predict(s.threshold, s.level)));
   }
-  result.models.push_back(joint);
+  return joint;
+}
 
-  // Candidate levels: the few above the first whose predicted floor is below the target; each gets
-  // the largest rho the model allows, and the one with the fewest triangles is verified.
+// Candidate levels: the few above the first whose predicted floor is below the target; each gets
+// the largest rho the model allows, and the one with the fewest triangles is verified (returned).
+Setting choose_esc_setting(Runner& run, const FittedModel& joint, double target, const FitOptions& options) {
   std::vector<int> levels = options.esc_levels;
   if (levels.empty()) {
     int first = kMaxEscLevel;
@@ -322,9 +327,20 @@ void fit_esc(Runner& run, FitResult& result, const Model& model, const FitOption
       chosen = Setting{level, rho};
     }
   }
+  return chosen;
+}
 
-  // Refine: a failure halves rho (then tries rho = 0, then the next level); a pass tries a larger
-  // rho as long as that saves triangles (counted without certifying).
+// The best passing sample of a refinement and its mesh (certified_error is kInf when none passed).
+struct EscBest {
+  FitSample sample;
+  Tessellation mesh;
+};
+
+// Refine from `chosen`: a failure halves rho (then tries rho = 0, then the next level); a pass tries a
+// larger rho as long as that saves triangles (counted without certifying). Counts result.iterations.
+EscBest refine_esc(Runner& run, FitResult& result, const Model& model, const FitOptions& options,
+                   const Setting& chosen) {
+  const double target = result.target_error;
   FitSample best;
   best.certified_error = kInf;
   Tessellation best_mesh;
@@ -363,8 +379,19 @@ void fit_esc(Runner& run, FitResult& result, const Model& model, const FitOption
       }
     }
   }
-  if (best.certified_error <= target) {
-    finish(result, best, std::move(best_mesh));
+  return EscBest{best, std::move(best_mesh)};
+}
+
+// Measure, fit the joint model, choose a level and rho, refine; the result is the best passing
+// sample, or the last one tried when none passed.
+void fit_esc(Runner& run, FitResult& result, const Model& model, const FitOptions& options) {
+  const double target = result.target_error;
+  const FittedModel joint = fit_esc_joint(measure_esc(run));
+  result.models.push_back(joint);
+  const Setting chosen = choose_esc_setting(run, joint, target, options);
+  EscBest best = refine_esc(run, result, model, options, chosen);
+  if (best.sample.certified_error <= target) {
+    finish(result, best.sample, std::move(best.mesh));
   } else {
     const FitSample last = run.samples.back();
     finish(result, last, run.tessellate(Setting{last.level, last.threshold}));

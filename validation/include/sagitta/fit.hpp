@@ -1,4 +1,4 @@
-// Fitting a scheme's parameter to a requested accuracy (issue 8).
+// Fitting a scheme's parameter to a requested accuracy (a target for the certified Hausdorff error).
 //
 // A scheme's parameter (uniform segments, ESC threshold and level, PN segments per edge) is not an
 // error. fit_to_error measures the certified error at a few parameter values, fits a smooth model
