@@ -1,10 +1,11 @@
 // Certified distance: closed-form cases, rational patches, and the tea set against a brute-force
-// reference (dense samples projected by Newton in long double, written here independently).
+// reference (dense samples projected by Newton in long double: tests/support/reference.hpp).
 #include "sagitta/certify.hpp"
 #include "sagitta/esc.hpp"
 #include "sagitta/fixtures.hpp"
 #include "sagitta/io/model_io.hpp"
 #include "sagitta/uniform.hpp"
+#include "reference.hpp"
 #include "test_support.hpp"
 
 #include <glm/geometric.hpp>
@@ -18,90 +19,12 @@
 namespace sagitta {
 namespace {
 
-using LD = long double;
-struct LVec {
-  LD x = 0, y = 0, z = 0;
-};
-LVec operator-(LVec a, LVec b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-LD dot(LVec a, LVec b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-
-// Bernstein basis value and derivative in long double (powers by repeated products).
-void bernstein(int n, LD t, LD* b, LD* db) {
-  LD tp[32], sp[32];  // t^k and (1 - t)^k
-  tp[0] = sp[0] = 1;
-  for (int k = 1; k <= n; ++k) {
-    tp[k] = tp[k - 1] * t;
-    sp[k] = sp[k - 1] * (1 - t);
-  }
-  for (int i = 0; i <= n; ++i) {
-    LD c = 1;
-    for (int k = 1; k <= i; ++k) c = c * (n - i + k) / k;
-    b[i] = c * tp[i] * sp[n - i];
-    LD d = 0;
-    if (i > 0) d += i * tp[i - 1] * sp[n - i];
-    if (i < n) d -= (n - i) * tp[i] * sp[n - i - 1];
-    db[i] = c * d;
-  }
-}
-
-// Position and partials of a polynomial or rational patch, in long double (quotient rule).
-void eval_ld(const BezierPatch& p, LD u, LD v, LVec& s, LVec& su, LVec& sv) {
-  LD bu[32], dbu[32], bv[32], dbv[32];
-  bernstein(p.degree_u, u, bu, dbu);
-  bernstein(p.degree_v, v, bv, dbv);
-  LD N[3] = {0, 0, 0}, Nu[3] = {0, 0, 0}, Nv[3] = {0, 0, 0}, W = 0, Wu = 0, Wv = 0;
-  for (int i = 0; i <= p.degree_u; ++i) {
-    for (int j = 0; j <= p.degree_v; ++j) {
-      const LD w = p.weight(i, j);
-      const LD c[3] = {p.at(i, j).x, p.at(i, j).y, p.at(i, j).z};
-      for (int k = 0; k < 3; ++k) {
-        N[k] += bu[i] * bv[j] * w * c[k];
-        Nu[k] += dbu[i] * bv[j] * w * c[k];
-        Nv[k] += bu[i] * dbv[j] * w * c[k];
-      }
-      W += bu[i] * bv[j] * w;
-      Wu += dbu[i] * bv[j] * w;
-      Wv += bu[i] * dbv[j] * w;
-    }
-  }
-  s = {N[0] / W, N[1] / W, N[2] / W};
-  su = {(Nu[0] - s.x * Wu) / W, (Nu[1] - s.y * Wu) / W, (Nu[2] - s.z * Wu) / W};
-  sv = {(Nv[0] - s.x * Wv) / W, (Nv[1] - s.y * Wv) / W, (Nv[2] - s.z * Wv) / W};
-}
-
-// Distance from x to the patch by damped Gauss-Newton in long double seeded at (u, v), clamped to
-// the domain; a step is taken only when it decreases the distance (halved otherwise).
-LD newton_distance(const BezierPatch& p, LVec x, LD u, LD v) {
-  LVec s, su, sv;
-  eval_ld(p, u, v, s, su, sv);
-  LD best = std::sqrt(dot(x - s, x - s));
-  for (int it = 0; it < 40; ++it) {
-    const LVec r = x - s;
-    const LD a = dot(su, su), b = dot(su, sv), c = dot(sv, sv), det = a * c - b * b;
-    if (!(det > 1e-40L)) break;
-    const LD ru = dot(su, r), rv = dot(sv, r);
-    LD du = (c * ru - b * rv) / det, dv = (a * rv - b * ru) / det;
-    if (std::fabs(du) + std::fabs(dv) < 1e-16L) break;  // converged: no step would move the point
-    bool moved = false;
-    for (int half = 0; half < 20 && !moved; ++half, du /= 2, dv /= 2) {
-      const LD nu = std::clamp(u + du, LD(0), LD(1)), nv = std::clamp(v + dv, LD(0), LD(1));
-      LVec ns, nsu, nsv;
-      eval_ld(p, nu, nv, ns, nsu, nsv);
-      const LD d = std::sqrt(dot(x - ns, x - ns));
-      if (d < best) {
-        best = d;
-        u = nu;
-        v = nv;
-        s = ns;
-        su = nsu;
-        sv = nsv;
-        moved = true;
-      }
-    }
-    if (!moved) break;
-  }
-  return best;
-}
+// The long-double reference shared with the extreme-geometry suite (tests/support/reference.hpp):
+// Bernstein by the stable recurrence, Newton from a seed clamped to the unit square.
+using extreme::dot;
+using extreme::LD;
+using extreme::LVec;
+using extreme::newton_distance;
 
 // Newton from the three best points of a 5 x 5 parameter grid (a global search that is cheap
 // next to running Newton from every grid point).
@@ -109,7 +32,7 @@ LD grid_newton_distance(const BezierPatch& p, LVec x) {
   std::array<std::pair<LD, int>, 25> seeds;
   for (int i = 0; i < 25; ++i) {
     LVec s, su, sv;
-    eval_ld(p, (i / 5) / LD(4), (i % 5) / LD(4), s, su, sv);
+    extreme::evaluate(p, LVec{}, (i / 5) / LD(4), (i % 5) / LD(4), s, su, sv);
     seeds[i] = {std::sqrt(dot(x - s, x - s)), i};
   }
   std::partial_sort(seeds.begin(), seeds.begin() + 3, seeds.end());
