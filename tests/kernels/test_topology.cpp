@@ -14,6 +14,9 @@ struct Expected {
   size_t patches, shared, free_edges, collapsed;
 };
 
+// gtest prints a parameter in test names and logs; the file name says which one it is.
+void PrintTo(const Expected& e, std::ostream* os) { *os << e.file; }
+
 class TeaSetTopology : public ::testing::TestWithParam<Expected> {};
 
 TEST_P(TeaSetTopology, MatchesProvenanceCounts) {
@@ -34,7 +37,12 @@ TEST_P(TeaSetTopology, MatchesProvenanceCounts) {
 // PROVENANCE: teapot 52 shared pairs, 16 unmatched, 8 collapsed; teacup 46/12/0; teaspoon at 1e-6: 28/8/0.
 INSTANTIATE_TEST_SUITE_P(Provenance, TeaSetTopology,
                          ::testing::Values(Expected{"teapot.bpt", 32, 52, 16, 8}, Expected{"teacup.bpt", 26, 46, 12, 0},
-                                           Expected{"teaspoon.bpt", 16, 28, 8, 0}));
+                                           Expected{"teaspoon.bpt", 16, 28, 8, 0}),
+                         // Test names from the file ("teapot"), not gtest's byte dump (it held a pointer).
+                         [](const ::testing::TestParamInfo<Expected>& info) {
+                           const std::string file = info.param.file;
+                           return file.substr(0, file.find('.'));
+                         });
 
 TEST(Topology, TeaspoonNearMissesAreReportedNotClosed) {
   const std::string path = test::shared_data("teaspoon.bpt");
