@@ -2,11 +2,11 @@
 // so triangles, time and certified error compare with our schemes in one command (docs/CAD.md).
 #include "commands.hpp"
 
+#include "sagitta/app/json.hpp"
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/mesh_check.hpp"
 #include "sagitta/occt/cad.hpp"
 
-#include <cmath>
 #include <iostream>
 #include <memory>
 
@@ -25,10 +25,8 @@ struct PeerCliOptions {
   std::string json;
 };
 
-nlohmann::json finite_or_null(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
-
 nlohmann::json peer_interval_json(const DistanceInterval& d) {
-  return {{"lower", d.lower}, {"upper", finite_or_null(d.upper)}, {"upper_certified", d.certified}};
+  return {{"lower", d.lower}, {"upper", app::number_or_null(d.upper)}, {"upper_certified", d.certified}};
 }
 
 // Checks the outputs and --max-depth (InputError) and returns the options for OCCT's mesher and our validator.
