@@ -111,8 +111,11 @@ bool domain_is_rectangle(const TopoDS_Face& face, double u0, double u1, double v
 // u_breaks / v_breaks receive the patch grid's lines in the converted surface's parameters (these
 // equal the face's (u, v) only where the conversion keeps the parametrisation: B-splines, Béziers,
 // planes; peer.cpp checks this at the mesh nodes before using them).
+// `converted` (when given) receives the B-spline surface the patches split (null for a whole Bézier surface,
+// whose patch is the surface itself).
 std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1, double v0, double v1, std::string& reason,
-                                   std::vector<double>& u_breaks, std::vector<double>& v_breaks) {
+                                   std::vector<double>& u_breaks, std::vector<double>& v_breaks,
+                                   Handle(Geom_BSplineSurface)* converted = nullptr) {
   while (s->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface))) {
     s = Handle(Geom_RectangularTrimmedSurface)::DownCast(s)->BasisSurface();
   }
@@ -177,6 +180,7 @@ std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1,
   v_breaks.clear();
   for (int i = uk.Lower(); i <= uk.Upper(); ++i) u_breaks.push_back(uk(i));
   for (int j = vk.Lower(); j <= vk.Upper(); ++j) v_breaks.push_back(vk(j));
+  if (converted) *converted = bs;
   std::vector<BezierPatch> out;
   for (int i = patches.LowerRow(); i <= patches.UpperRow(); ++i) {
     for (int j = patches.LowerCol(); j <= patches.UpperCol(); ++j) out.push_back(to_patch(patches(i, j)));
@@ -323,12 +327,8 @@ TopoDS_Shape read_brep_shape(const std::string& text, const std::string& name) {
   return shape;
 }
 
-namespace {
-
-// The face's Bézier patches (u reversed on a reversed face); empty when the face is skipped, with
-// r.reason saying why. Sets r's surface type, breaks and (for a trimmed face) status.
 std::vector<BezierPatch> face_patches(const TopoDS_Face& face, const std::string& name, const CadOptions& options,
-                                      FaceReport& r) {
+                                      FaceReport& r, Handle(Geom_BSplineSurface)* converted) {
   std::vector<BezierPatch> patches;
   try {
     const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);  // location applied
@@ -347,7 +347,7 @@ std::vector<BezierPatch> face_patches(const TopoDS_Face& face, const std::string
       if (analytic && !options.convert_analytic) {
         r.reason = "analytic surface and convert_analytic is off";
       } else {
-        patches = decompose(surface, u0, u1, v0, v1, r.reason, r.u_breaks, r.v_breaks);
+        patches = decompose(surface, u0, u1, v0, v1, r.reason, r.u_breaks, r.v_breaks, converted);
         for (size_t i = 0; i < patches.size() && r.reason.empty(); ++i) {
           try {
             validate_patch(patches[i], name + " " + r.name);
@@ -374,8 +374,6 @@ std::vector<BezierPatch> face_patches(const TopoDS_Face& face, const std::string
   }
   return patches;
 }
-
-}  // namespace
 
 CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name, const CadOptions& options) {
   CadModel cad;

@@ -3,6 +3,7 @@
 
 #include "sagitta/occt/cad.hpp"
 
+#include <Geom_BSplineSurface.hxx>
 #include <TopoDS_Face.hxx>
 #include <TopoDS_Shape.hxx>
 
@@ -14,6 +15,12 @@ namespace sagitta::occt {
 TopoDS_Shape read_cad_shape(const std::string& path);
 // The shape in a BREP text.
 TopoDS_Shape read_brep_shape(const std::string& text, const std::string& name);
+// The face's Bézier patches (u reversed on a reversed face); empty when the face is skipped, with
+// r.reason saying why. Sets r's surface type, breaks and (for a trimmed face) status "trimmed".
+// `converted` (when given) receives the B-spline surface the patches split, in the breaks' parameters
+// (null when the face's surface is a whole Bézier surface: then they are its own).
+std::vector<BezierPatch> face_patches(const TopoDS_Face& face, const std::string& name, const CadOptions& options,
+                                      FaceReport& r, Handle(Geom_BSplineSurface)* converted = nullptr);
 // Faces of the shape (TopExp::MapShapes order) as Bézier patches, with a report per face.
 CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name, const CadOptions& options);
 // The triangulation OCCT left on a trimmed face, measured against the face (its Bézier patches

@@ -1,0 +1,89 @@
+// Whole CAD parts: every face of a B-rep tessellated into one indexed mesh that is watertight across
+// faces (docs/CAD.md, "Whole parts"). Each B-rep edge is discretised once and every face that uses it
+// takes the same vertices; inside a face the chosen scheme (uniform or ESC) runs on the face's Bézier
+// patches and the cells its trimming loops cross are re-triangulated with CGAL's constrained Delaunay
+// triangulation in the patches' parameters. No OCCT type appears in this header.
+#pragma once
+
+#include "sagitta/model.hpp"
+#include "sagitta/occt/cad.hpp"
+#include "sagitta/scheme.hpp"
+#include "sagitta/tessellation.hpp"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace sagitta::occt {
+
+struct PartOptions {
+  // uniform (level / segments) or esc (threshold); pn is a scheme for triangle meshes and is refused.
+  SchemeSpec scheme;
+  // > 0: every edge is split until each chord is within this distance of the edge's 3D curve
+  // (sampled; issue "Certified whole parts" proves it), on top of the scheme's own density.
+  double edge_tolerance = 0.0;
+  CadOptions cad;
+};
+
+// One face of the part (faces in TopExp::MapShapes order, named as FreeCAD names them).
+struct PartFace {
+  int face_index = 0;        // 0-based
+  std::string name;          // "Face 12"
+  std::string surface_type;  // "Plane", "Cylinder", "BSplineSurface", ...
+  bool trimmed = false;      // the face's domain is not its whole parameter rectangle
+  int solid = -1;            // index into PartMesh::solids; -1 for a face outside every solid
+  std::string status;        // "tessellated" | "skipped"
+  std::string reason;        // why skipped ("" when tessellated)
+  int first_patch = -1;      // into PartMesh::model.patches
+  int patch_count = 0;
+  uint64_t triangles = 0;         // emitted triangles of the face
+  uint64_t scheme_triangles = 0;  // of those, the scheme's own triangles kept unchanged
+  uint64_t boundary_vertices = 0; // shared edge vertices on the face's loops
+  // Largest distance between a boundary vertex's position and the face's Bézier surface at the
+  // (u, v) the p-curve maps it to (the conversion's parametrisation checked at every boundary vertex).
+  double max_boundary_offset = 0.0;
+};
+
+// A solid of the B-rep, as OCCT sees it.
+struct PartSolid {
+  int index = 0;
+  bool closed = false;        // every shell of the solid is closed (BRep_Tool::IsClosed)
+  bool valid = false;         // BRepCheck_Analyzer
+  double volume = 0.0;        // BRepGProp::VolumeProperties
+  uint64_t faces = 0;
+  uint64_t triangles = 0;
+};
+
+struct PartMesh {
+  std::string name;
+  Model model;  // every tessellated face's Bézier patches (u reversed on reversed faces), in face order
+  // One indexed mesh: shared edge vertices; triangles wind counter-clockwise seen from outside the
+  // solid; triangle_patch / triangle_uv / surface_points refer to `model` (a triangle re-triangulated
+  // near a trimming loop may reach into the neighbouring patch: its (u, v) are then outside [0, 1]).
+  Tessellation mesh;
+  std::vector<uint32_t> triangle_face;   // per triangle: PartFace::face_index
+  std::vector<int32_t> triangle_solid;   // per triangle: PartSolid::index, -1 outside every solid
+  // Mesh edges (vertex pairs) on free B-rep edges, i.e. edges used by one face only: the model's real
+  // boundary (an open shell's rim), never a crack.
+  std::vector<std::array<uint32_t, 2>> boundary_edges;
+  std::vector<PartFace> faces;
+  std::vector<PartSolid> solids;
+  int faces_tessellated = 0;
+  int faces_skipped = 0;
+  int faces_trimmed = 0;
+  int edges = 0;                 // B-rep edges (degenerated ones included)
+  uint64_t edge_vertices = 0;    // vertices on edges (B-rep vertices included)
+  double seconds = 0.0;
+};
+
+// Reads a .step/.stp, .iges/.igs or .brep/.brp file and tessellates every face. Throws InputError
+// (one line naming the file) for unreadable input, for a pn scheme and for parameters the scheme
+// refuses. A face that cannot be converted is listed with its reason (faces_skipped), never dropped
+// silently. Deterministic: the same input gives a bit-identical mesh with any number of threads.
+PartMesh mesh_part_file(const std::string& path, const PartOptions& options);
+
+// The same for an OCCT BREP text (FreeCAD: Part.Shape.exportBrepToString()); `name` names it in messages.
+PartMesh mesh_part_brep_string(const std::string& brep_text, const std::string& name, const PartOptions& options);
+
+}  // namespace sagitta::occt

@@ -1,0 +1,776 @@
+// Whole CAD parts (docs/CAD.md, "Whole parts"): edges first, then every face.
+//
+// 1. Every B-rep vertex becomes one mesh vertex; every edge is sampled once (its density follows the
+//    scheme on each face that uses it, its turning and an optional chord tolerance) and its interior
+//    samples become mesh vertices. A face only refers to these: two faces meeting at an edge share
+//    its vertices by index, so the part is watertight by construction. A degenerated edge (sphere
+//    pole, cone apex) is one vertex; a seam is shared by the face with itself.
+// 2. Inside a face the scheme runs on the face's Bézier patches. Its triangles are kept where they
+//    lie inside the trimmed domain and clear of the trimming loops; the rest of the domain (between
+//    the kept triangles and the loops) is filled by CGAL's constrained Delaunay triangulation in the
+//    patches' parameters, with the loops' chords and the kept triangles' edges as constraints.
+#include "sagitta/occt/part.hpp"
+
+#include "occt_shape.hpp"
+#include "part_cdt.hpp"
+
+#include "sagitta/evaluate.hpp"
+
+#include <glm/geometric.hpp>
+
+#include <BRepAdaptor_Curve.hxx>
+#include <BRepCheck_Analyzer.hxx>
+#include <BRepGProp.hxx>
+#include <BRep_Tool.hxx>
+#include <GProp_GProps.hxx>
+#include <Geom2d_Curve.hxx>
+#include <Geom_BSplineSurface.hxx>
+#include <Geom_BezierSurface.hxx>
+#include <Geom_RectangularTrimmedSurface.hxx>
+#include <Geom_Surface.hxx>
+#include <Standard_Failure.hxx>
+#include <TopExp.hxx>
+#include <TopExp_Explorer.hxx>
+#include <TopTools_IndexedDataMapOfShapeListOfShape.hxx>
+#include <TopTools_IndexedMapOfShape.hxx>
+#include <TopTools_ListOfShape.hxx>
+#include <TopoDS.hxx>
+#include <TopoDS_Edge.hxx>
+#include <TopoDS_Shell.hxx>
+#include <TopoDS_Solid.hxx>
+#include <TopoDS_Vertex.hxx>
+#include <gp_Pnt2d.hxx>
+#include <gp_Vec.hxx>
+
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <memory>
+#include <set>
+#include <unordered_map>
+#include <unordered_set>
+
+namespace sagitta::occt {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+Vec3 to_vec(const gp_Pnt& p) { return Vec3(p.X(), p.Y(), p.Z()); }
+
+// ---------------------------------------------------------------------------------------------
+// The shape's maps: faces, edges, vertices and solids numbered once (TopExp::MapShapes order).
+struct ShapeIndex {
+  TopTools_IndexedMapOfShape faces, edges, vertices, solids;
+  TopTools_IndexedDataMapOfShapeListOfShape edge_faces, face_solids;
+};
+
+ShapeIndex index_shape(const TopoDS_Shape& shape) {
+  ShapeIndex x;
+  TopExp::MapShapes(shape, TopAbs_FACE, x.faces);
+  TopExp::MapShapes(shape, TopAbs_EDGE, x.edges);
+  TopExp::MapShapes(shape, TopAbs_VERTEX, x.vertices);
+  TopExp::MapShapes(shape, TopAbs_SOLID, x.solids);
+  TopExp::MapShapesAndAncestors(shape, TopAbs_EDGE, TopAbs_FACE, x.edge_faces);
+  TopExp::MapShapesAndAncestors(shape, TopAbs_FACE, TopAbs_SOLID, x.face_solids);
+  return x;
+}
+
+// Distinct faces (by TShape and location) that use an edge.
+std::vector<int> faces_of_edge(const ShapeIndex& x, const TopoDS_Shape& edge) {
+  std::vector<int> out;
+  const int k = x.edge_faces.FindIndex(edge);
+  if (k == 0) return out;
+  for (TopTools_ListOfShape::Iterator it(x.edge_faces(k)); it.More(); it.Next()) {
+    const int f = x.faces.FindIndex(it.Value()) - 1;
+    if (f >= 0 && std::find(out.begin(), out.end(), f) == out.end()) out.push_back(f);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// A face's surface and the Bézier patches it splits into, with the map from the face's (u, v) to
+// the patches' parameters (U, V): the identity for B-spline and Bézier surfaces; for analytic
+// surfaces OCCT's exact conversion re-parametrises the circular directions (tan(theta/2)), so the
+// point S(u, v) is found on the converted surface by Gauss-Newton seeded at (u, v).
+struct FaceGeometry {
+  TopoDS_Face face;
+  FaceReport report;
+  std::vector<BezierPatch> patches;
+  Handle(Geom_Surface) surface;
+  Handle(Geom_BSplineSurface) converted;  // null: (U, V) = (u, v)
+  bool reversed = false;
+  int nu = 0, nv = 0;             // patch grid
+  double su = 1.0, sv = 1.0;      // scale of U and V in the CDT (mean |dS/dU|, |dS/dV|)
+  int solid = -1;
+};
+
+double clamp(double x, double lo, double hi) { return std::min(std::max(x, lo), hi); }
+
+// The span of `breaks` that holds x and x's fraction in it (not clamped: outside gives < 0 or > 1).
+std::pair<int, double> locate_span(const std::vector<double>& breaks, double x) {
+  const int spans = static_cast<int>(breaks.size()) - 1;
+  int i = static_cast<int>(std::upper_bound(breaks.begin(), breaks.end(), x) - breaks.begin()) - 1;
+  i = std::max(0, std::min(i, spans - 1));
+  const double a = breaks[i], b = breaks[i + 1];
+  return {i, (x - a) / (b - a)};
+}
+
+// (patch index in the face, local (s, t) in that patch's own frame) of the point (U, V).
+std::pair<int, Vec2> locate_patch(const FaceGeometry& g, double U, double V) {
+  const auto [i, s] = locate_span(g.report.u_breaks, U);
+  const auto [j, t] = locate_span(g.report.v_breaks, V);
+  return {i * g.nv + j, Vec2(g.reversed ? 1.0 - s : s, t)};
+}
+
+// (U, V) of a patch-local point (s, t): exact at the patch corners (s, t in {0, 1} give the breaks).
+Vec2 patch_to_uv(const FaceGeometry& g, int patch, const Vec2& st) {
+  const int i = patch / g.nv, j = patch % g.nv;
+  const double s = g.reversed ? 1.0 - st.x : st.x, t = st.y;
+  const auto lerp = [](double a, double b, double x) { return (1.0 - x) * a + x * b; };
+  return Vec2(lerp(g.report.u_breaks[i], g.report.u_breaks[i + 1], s),
+              lerp(g.report.v_breaks[j], g.report.v_breaks[j + 1], t));
+}
+
+Vec3 eval_uv(const FaceGeometry& g, const Vec2& UV) {
+  const auto [p, st] = locate_patch(g, UV.x, UV.y);
+  const auto e = de_casteljau<double>(g.patches[p], clamp(st.x, 0.0, 1.0), clamp(st.y, 0.0, 1.0));
+  return Vec3(e[0], e[1], e[2]);
+}
+
+// The patch parameters (U, V) of the face's point (u, v) (see FaceGeometry).
+Vec2 face_to_uv(const FaceGeometry& g, double u, double v) {
+  const std::vector<double>& ub = g.report.u_breaks;
+  const std::vector<double>& vb = g.report.v_breaks;
+  double U = clamp(u, ub.front(), ub.back()), V = clamp(v, vb.front(), vb.back());
+  if (g.converted.IsNull()) return Vec2(U, V);
+  const gp_Pnt target = g.surface->Value(u, v);
+  for (int iteration = 0; iteration < 40; ++iteration) {
+    gp_Pnt p;
+    gp_Vec du, dv;
+    g.converted->D1(U, V, p, du, dv);
+    const gp_Vec r(target, p);
+    const double a = du.Dot(du), b = du.Dot(dv), c = dv.Dot(dv);
+    const double ru = r.Dot(du), rv = r.Dot(dv);
+    const double reg = 1e-12 * (a + c) + std::numeric_limits<double>::min();
+    const double det = (a + reg) * (c + reg) - b * b;
+    if (!(det > 0.0)) break;
+    const double dU = -((c + reg) * ru - b * rv) / det, dV = -((a + reg) * rv - b * ru) / det;
+    const double U1 = clamp(U + dU, ub.front(), ub.back()), V1 = clamp(V + dV, vb.front(), vb.back());
+    const bool converged = std::abs(U1 - U) <= 1e-15 * (ub.back() - ub.front()) &&
+                           std::abs(V1 - V) <= 1e-15 * (vb.back() - vb.front());
+    U = U1, V = V1;
+    if (converged) break;
+  }
+  return Vec2(U, V);
+}
+
+// Mean |dS/dU| and |dS/dV| over the patches (3 x 3 points each): the CDT's scale, so that its
+// Delaunay criterion sees triangles shaped roughly as they are in space.
+void set_scale(FaceGeometry& g) {
+  double su = 0.0, sv = 0.0;
+  int n = 0;
+  for (int p = 0; p < static_cast<int>(g.patches.size()); ++p) {
+    const int i = p / g.nv, j = p % g.nv;
+    const double span_u = g.report.u_breaks[i + 1] - g.report.u_breaks[i];
+    const double span_v = g.report.v_breaks[j + 1] - g.report.v_breaks[j];
+    for (double s : {0.25, 0.5, 0.75}) {
+      for (double t : {0.25, 0.5, 0.75}) {
+        const SurfacePointEval e = evaluate_with_derivatives(g.patches[p], s, t);
+        su += glm::length(e.du) / span_u;
+        sv += glm::length(e.dv) / span_v;
+        ++n;
+      }
+    }
+  }
+  g.su = n > 0 && std::isfinite(su) && su > 0.0 ? su / n : 1.0;
+  g.sv = n > 0 && std::isfinite(sv) && sv > 0.0 ? sv / n : 1.0;
+}
+
+FaceGeometry face_geometry(const ShapeIndex& x, int f, const std::string& name, const CadOptions& options) {
+  FaceGeometry g;
+  g.face = TopoDS::Face(x.faces(f + 1));
+  g.report.face_index = f;
+  g.report.name = "Face " + std::to_string(f + 1);
+  g.patches = face_patches(g.face, name, options, g.report, &g.converted);
+  g.reversed = g.face.Orientation() == TopAbs_REVERSED;
+  const int k = x.face_solids.FindIndex(g.face);
+  if (k > 0 && !x.face_solids(k).IsEmpty()) g.solid = x.solids.FindIndex(x.face_solids(k).First()) - 1;
+  if (g.patches.empty()) return g;
+  g.surface = BRep_Tool::Surface(g.face);
+  g.nu = static_cast<int>(g.report.u_breaks.size()) - 1;
+  g.nv = static_cast<int>(g.report.v_breaks.size()) - 1;
+  if (g.converted.IsNull() == false) {
+    // B-spline and Bézier faces keep their parameters; only analytic ones need the map.
+    Handle(Geom_Surface) basis = g.surface;
+    while (basis->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))
+      basis = Handle(Geom_RectangularTrimmedSurface)::DownCast(basis)->BasisSurface();
+    if (basis->IsKind(STANDARD_TYPE(Geom_BSplineSurface)) || basis->IsKind(STANDARD_TYPE(Geom_BezierSurface)))
+      g.converted.Nullify();
+  }
+  set_scale(g);
+  return g;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Edges: sampled once, shared by every face that uses them.
+struct EdgeSamples {
+  std::vector<double> t;         // edge parameters (BRep_Tool::Range), increasing
+  std::vector<uint32_t> vertex;  // mesh vertex of each sample
+  bool degenerated = false;
+  bool free = false;  // used by one face only, not a seam: the model's boundary
+};
+
+// Segments per patch span the scheme puts on a patch side (the edge density's unit).
+int scheme_segments(const SchemeSpec& spec) {
+  if (spec.scheme == Scheme::kUniform) {
+    if (spec.segments > 0) return spec.segments;
+    return 1 << std::max(0, std::min(spec.level >= 0 ? spec.level : 2, 12));
+  }
+  return 1;
+}
+
+// The edge's p-curve on face g sampled at 33 points, in patch-grid units (a patch span is 1): how many
+// grid cells of the face the edge runs along.
+double grid_length(const FaceGeometry& g, const TopoDS_Edge& edge) {
+  double f = 0.0, l = 0.0;
+  const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(edge, g.face, f, l);
+  if (pc.IsNull()) return 0.0;
+  double length = 0.0;
+  Vec2 prev(0.0);
+  for (int k = 0; k <= 32; ++k) {
+    const gp_Pnt2d q = pc->Value(f + (l - f) * k / 32.0);
+    const Vec2 UV = face_to_uv(g, q.X(), q.Y());
+    const auto [i, s] = locate_span(g.report.u_breaks, UV.x);
+    const auto [j, t] = locate_span(g.report.v_breaks, UV.y);
+    const Vec2 grid(i + s, j + t);
+    if (k > 0) length += glm::length(grid - prev);
+    prev = grid;
+  }
+  return length;
+}
+
+// Total turning of the edge's tangent (radians), from 64 chords.
+double turning(const BRepAdaptor_Curve& c, double first, double last) {
+  double total = 0.0;
+  Vec3 prev_dir(0.0);
+  Vec3 prev = to_vec(c.Value(first));
+  for (int k = 1; k <= 64; ++k) {
+    const Vec3 p = to_vec(c.Value(first + (last - first) * k / 64.0));
+    const Vec3 d = p - prev;
+    const double len = glm::length(d);
+    if (len > 0.0) {
+      const Vec3 dir = d / len;
+      if (glm::length(prev_dir) > 0.0) total += std::acos(clamp(glm::dot(dir, prev_dir), -1.0, 1.0));
+      prev_dir = dir;
+    }
+    prev = p;
+  }
+  return total;
+}
+
+double chord_distance(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 ab = b - a;
+  const double len2 = glm::dot(ab, ab);
+  const double t = len2 > 0.0 ? clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
+  return glm::length(p - (a + t * ab));
+}
+
+// Splits the parameters t (sorted) until every chord is within tol of the curve at its quarter
+// points; at most `cap` samples.
+void refine_to_tolerance(const BRepAdaptor_Curve& c, std::vector<double>& t, double tol, size_t cap) {
+  bool changed = true;
+  while (changed && t.size() < cap) {
+    changed = false;
+    std::vector<double> out{t.front()};
+    for (size_t k = 0; k + 1 < t.size(); ++k) {
+      const Vec3 a = to_vec(c.Value(t[k])), b = to_vec(c.Value(t[k + 1]));
+      double worst = 0.0;
+      for (double w : {0.25, 0.5, 0.75}) {
+        worst = std::max(worst, chord_distance(to_vec(c.Value(t[k] + w * (t[k + 1] - t[k]))), a, b));
+      }
+      if (worst > tol && out.size() + (t.size() - k) < cap) {
+        out.push_back(0.5 * (t[k] + t[k + 1]));
+        changed = true;
+      }
+      out.push_back(t[k + 1]);
+    }
+    t.swap(out);
+  }
+}
+
+struct PartBuilder {
+  const PartOptions& options;
+  const ShapeIndex& x;
+  std::vector<FaceGeometry>& geometry;
+  PartMesh& out;
+  std::vector<EdgeSamples> edges;
+  std::vector<bool> surface_point_set;
+  // Per mesh vertex: how far apart two loop points of it may lie in a face's scaled (U, V) and still
+  // be the same point (10 x the B-rep vertex's tolerance; edge samples: 1e-9 of the part's size).
+  std::vector<double> vertex_tolerance;
+
+  uint32_t add_vertex(const Vec3& p) {
+    out.mesh.positions.push_back(p);
+    out.mesh.surface_points.push_back({});
+    surface_point_set.push_back(false);
+    vertex_tolerance.push_back(0.0);
+    return static_cast<uint32_t>(out.mesh.positions.size() - 1);
+  }
+};
+
+void sample_edge(PartBuilder& b, int e) {
+  const TopoDS_Edge edge = TopoDS::Edge(b.x.edges(e + 1).Oriented(TopAbs_FORWARD));
+  EdgeSamples& s = b.edges[e];
+  TopoDS_Vertex v_first, v_last;
+  TopExp::Vertices(edge, v_first, v_last);
+  double first = 0.0, last = 0.0;
+  BRep_Tool::Range(edge, first, last);
+  const std::vector<int> faces = faces_of_edge(b.x, edge);
+  const int segs = scheme_segments(b.options.scheme);
+  int n = 1;
+  for (int f : faces) {
+    if (!b.geometry[f].patches.empty()) n = std::max(n, static_cast<int>(std::ceil(grid_length(b.geometry[f], edge) * segs - 1e-9)));
+  }
+  s.degenerated = BRep_Tool::Degenerated(edge);
+  bool seam = false;
+  for (int f : faces) seam = seam || BRep_Tool::IsClosed(edge, b.geometry[f].face);
+  s.free = faces.size() == 1 && !seam && !s.degenerated;
+  const bool closed = !v_first.IsNull() && v_first.IsSame(v_last);
+  std::unique_ptr<BRepAdaptor_Curve> curve;
+  if (!s.degenerated) {
+    curve = std::make_unique<BRepAdaptor_Curve>(edge);
+    const double turn = turning(*curve, first, last);
+    n = std::max(n, static_cast<int>(std::ceil(segs * turn / (kPi / 2) - 1e-9)));
+    if (turn > 1e-3) n = std::max(n, 2);
+  }
+  if (closed) n = std::max(n, 3);
+  n = std::min(n, 1 << 16);
+  for (int k = 0; k <= n; ++k) s.t.push_back(k == n ? last : first + (last - first) * k / n);
+  double tol = b.options.edge_tolerance;
+  if (b.options.scheme.scheme == Scheme::kEsc && b.options.scheme.threshold > 0.0)
+    tol = tol > 0.0 ? std::min(tol, b.options.scheme.threshold) : b.options.scheme.threshold;
+  if (curve && tol > 0.0) refine_to_tolerance(*curve, s.t, tol, size_t(1) << 16);
+  const auto vertex_id = [&](const TopoDS_Vertex& v) { return static_cast<uint32_t>(b.x.vertices.FindIndex(v) - 1); };
+  for (size_t k = 0; k < s.t.size(); ++k) {
+    if (s.degenerated) {
+      s.vertex.push_back(vertex_id(v_first));
+    } else if (k == 0 && !v_first.IsNull()) {
+      s.vertex.push_back(vertex_id(v_first));
+    } else if (k + 1 == s.t.size() && !v_last.IsNull()) {
+      s.vertex.push_back(vertex_id(v_last));
+    } else {
+      s.vertex.push_back(b.add_vertex(to_vec(curve->Value(s.t[k]))));
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// One face: its loops' chords in the CDT's plane (scaled (U, V)), the scheme's triangles kept inside.
+
+struct LoopPoint {
+  Vec2 q;           // (U su, V sv)
+  uint32_t vertex;  // mesh vertex
+};
+
+// Boundary segments in a bucket grid over the face's plane, for "is anything near this box" and
+// "is this point inside" (even-odd crossings of a ray towards +x).
+class SegmentGrid {
+ public:
+  SegmentGrid(const std::vector<LoopPoint>& points, const std::vector<std::array<uint32_t, 2>>& segments)
+      : points_(points), segments_(segments) {
+    lo_ = Vec2(std::numeric_limits<double>::max()), hi_ = Vec2(-std::numeric_limits<double>::max());
+    for (const LoopPoint& p : points) lo_ = glm::min(lo_, p.q), hi_ = glm::max(hi_, p.q);
+    cells_ = std::max(1, std::min(512, static_cast<int>(std::sqrt(double(segments.size())))));
+    size_ = glm::max((hi_ - lo_) / double(cells_), Vec2(1e-300));
+    grid_.resize(size_t(cells_) * cells_);
+    rows_.resize(cells_);
+    for (uint32_t k = 0; k < segments.size(); ++k) {
+      const Vec2 a = points[segments[k][0]].q, b = points[segments[k][1]].q;
+      const auto [i0, j0] = cell(glm::min(a, b));
+      const auto [i1, j1] = cell(glm::max(a, b));
+      for (int j = j0; j <= j1; ++j) {
+        rows_[j].push_back(k);
+        for (int i = i0; i <= i1; ++i) grid_[size_t(j) * cells_ + i].push_back(k);
+      }
+    }
+  }
+
+  // True when a segment's box meets the box [lo, hi].
+  bool any_near(const Vec2& lo, const Vec2& hi) const {
+    const auto [i0, j0] = cell(lo);
+    const auto [i1, j1] = cell(hi);
+    for (int j = j0; j <= j1; ++j) {
+      for (int i = i0; i <= i1; ++i) {
+        for (uint32_t k : grid_[size_t(j) * cells_ + i]) {
+          const Vec2 a = points_[segments_[k][0]].q, b = points_[segments_[k][1]].q;
+          if (std::max(a.x, b.x) >= lo.x && std::min(a.x, b.x) <= hi.x && std::max(a.y, b.y) >= lo.y &&
+              std::min(a.y, b.y) <= hi.y)
+            return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  // Even-odd: inside the loops.
+  bool inside(const Vec2& p) const {
+    if (p.x < lo_.x || p.x > hi_.x || p.y < lo_.y || p.y > hi_.y) return false;
+    bool in = false;
+    for (uint32_t k : rows_[cell(p).second]) {
+      const Vec2 a = points_[segments_[k][0]].q, b = points_[segments_[k][1]].q;
+      if ((a.y > p.y) != (b.y > p.y)) {
+        const double x = a.x + (p.y - a.y) * (b.x - a.x) / (b.y - a.y);
+        if (x > p.x) in = !in;
+      }
+    }
+    return in;
+  }
+
+ private:
+  std::pair<int, int> cell(const Vec2& p) const {
+    const auto c = [&](double v, double lo, double size) {
+      return std::max(0, std::min(cells_ - 1, static_cast<int>(std::floor((v - lo) / size))));
+    };
+    return {c(p.x, lo_.x, size_.x), c(p.y, lo_.y, size_.y)};
+  }
+  const std::vector<LoopPoint>& points_;
+  const std::vector<std::array<uint32_t, 2>>& segments_;
+  Vec2 lo_, hi_, size_;
+  int cells_ = 1;
+  std::vector<std::vector<uint32_t>> grid_, rows_;
+};
+
+// The face's loops as chords between shared edge samples. Returns false (with a reason) when an
+// edge has no p-curve on the face.
+bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& points,
+                std::vector<std::array<uint32_t, 2>>& segments, PartFace& pf) {
+  // A degenerated edge (pole, apex) is one mesh vertex but a segment in (U, V). Were its samples
+  // kept apart, the CDT could join one point to two of them, and the two triangles would fold onto
+  // the same edge in space; so every loop point at that vertex moves to one point, the segment's
+  // middle, and the segment itself is left out (the triangles there fan around the pole).
+  std::map<uint32_t, Vec2> pole;
+  std::vector<std::pair<uint32_t, uint32_t>> ranges;  // per edge: [first, last) in points
+  for (TopExp_Explorer it(g.face, TopAbs_EDGE); it.More(); it.Next()) {
+    const TopoDS_Edge edge = TopoDS::Edge(it.Current());
+    if (edge.Orientation() == TopAbs_INTERNAL || edge.Orientation() == TopAbs_EXTERNAL) continue;
+    const int e = b.x.edges.FindIndex(edge) - 1;
+    const EdgeSamples& s = b.edges[e];
+    double f = 0.0, l = 0.0;
+    const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(edge, g.face, f, l);
+    if (pc.IsNull()) {
+      pf.reason = "edge " + std::to_string(e + 1) + " has no curve on the face's surface";
+      return false;
+    }
+    const double first = s.t.front(), last = s.t.back();
+    const bool same = BRep_Tool::SameParameter(edge) && BRep_Tool::SameRange(edge);
+    const auto uv_at = [&](double t) {
+      const double p = same || last == first ? t : f + (t - first) * (l - f) / (last - first);
+      const gp_Pnt2d uv = pc->Value(p);
+      return face_to_uv(g, uv.X(), uv.Y());
+    };
+    if (s.degenerated) {
+      const Vec2 UV = uv_at(0.5 * (first + last));
+      pole.emplace(s.vertex.front(), Vec2(UV.x * g.su, UV.y * g.sv));
+      continue;
+    }
+    const uint32_t start = static_cast<uint32_t>(points.size());
+    for (size_t k = 0; k < s.t.size(); ++k) {
+      const Vec2 UV = uv_at(s.t[k]);
+      points.push_back({Vec2(UV.x * g.su, UV.y * g.sv), s.vertex[k]});
+      const double offset = glm::length(b.out.mesh.positions[s.vertex[k]] - eval_uv(g, UV));
+      pf.max_boundary_offset = std::max(pf.max_boundary_offset, offset);
+      if (!b.surface_point_set[s.vertex[k]]) {
+        const auto [patch, st] = locate_patch(g, UV.x, UV.y);
+        b.out.mesh.surface_points[s.vertex[k]] = {static_cast<uint32_t>(pf.first_patch + patch), st.x, st.y};
+        b.surface_point_set[s.vertex[k]] = true;
+      }
+    }
+    ranges.push_back({start, static_cast<uint32_t>(points.size())});
+  }
+  // Two loop points of one vertex (an edge's end and the next edge's start, both ends of a closed
+  // edge) come from different p-curves and differ by rounding or the B-rep's tolerance; left apart
+  // they would open the loop. Copies further apart than the vertex's tolerance (a seam's two sides)
+  // stay apart.
+  std::map<uint32_t, std::vector<Vec2>> copies;
+  for (LoopPoint& p : points) {
+    const auto it = pole.find(p.vertex);
+    if (it != pole.end()) {
+      p.q = it->second;
+      continue;
+    }
+    std::vector<Vec2>& seen = copies[p.vertex];
+    const double tol = b.vertex_tolerance[p.vertex];
+    bool merged = false;
+    for (const Vec2& q : seen) {
+      if (glm::length(q - p.q) <= tol) {
+        p.q = q;
+        merged = true;
+        break;
+      }
+    }
+    if (!merged) seen.push_back(p.q);
+  }
+  for (const auto& [start, end] : ranges) {
+    for (uint32_t k = start + 1; k < end; ++k) {
+      if (points[k].q != points[k - 1].q) segments.push_back({k - 1, k});
+    }
+  }
+  pf.boundary_vertices = points.size();
+  return true;
+}
+
+// Appends triangle (a, b, c) of face g to the part (skipping one whose corners are not distinct
+// vertices: the fan at a pole). uv are the corners' (U, V).
+void emit_triangle(PartBuilder& b, const FaceGeometry& g, PartFace& pf, std::array<uint32_t, 3> tri,
+                   std::array<Vec2, 3> uv) {
+  if (tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0]) {
+    ++b.out.mesh.degenerate_triangles;
+    return;
+  }
+  const Vec2 centre = (uv[0] + uv[1] + uv[2]) / 3.0;
+  const int patch = locate_patch(g, centre.x, centre.y).first;
+  const int i = patch / g.nv, j = patch % g.nv;
+  std::array<Vec2, 3> st;
+  for (int k = 0; k < 3; ++k) {
+    const double s = (uv[k].x - g.report.u_breaks[i]) / (g.report.u_breaks[i + 1] - g.report.u_breaks[i]);
+    const double t = (uv[k].y - g.report.v_breaks[j]) / (g.report.v_breaks[j + 1] - g.report.v_breaks[j]);
+    st[k] = Vec2(g.reversed ? 1.0 - s : s, t);
+  }
+  b.out.mesh.triangles.push_back(tri);
+  b.out.mesh.triangle_patch.push_back(static_cast<uint32_t>(pf.first_patch + patch));
+  b.out.mesh.triangle_uv.push_back(st);
+  b.out.triangle_face.push_back(static_cast<uint32_t>(g.report.face_index));
+  b.out.triangle_solid.push_back(g.solid);
+  ++pf.triangles;
+}
+
+struct KeyHash {
+  size_t operator()(const std::array<uint32_t, 3>& k) const {
+    return (size_t(k[0]) * 73856093u) ^ (size_t(k[1]) * 19349663u) ^ (size_t(k[2]) * 83492791u);
+  }
+};
+
+// The scheme's triangles of the face (in the face's own patch numbering) and which are kept.
+struct SchemeMesh {
+  Tessellation mesh;
+  std::vector<Vec2> vertex_uv;      // per scheme vertex: (U, V)
+  std::vector<bool> kept;           // per triangle
+  std::vector<uint32_t> mesh_vertex;  // per scheme vertex: part mesh vertex (created when used)
+};
+
+SchemeMesh scheme_mesh(PartBuilder& b, const FaceGeometry& g, const SegmentGrid& grid) {
+  SchemeMesh sm;
+  Model model;
+  model.patches = g.patches;
+  SchemeSpec spec = b.options.scheme;
+  spec.surface_data = true;
+  spec.vertex_normals = false;
+  sm.mesh = tessellate(model, build_topology(model), spec);
+  const Tessellation& m = sm.mesh;
+  sm.vertex_uv.assign(m.positions.size(), Vec2(0.0));
+  for (size_t t = 0; t < m.triangles.size(); ++t) {
+    for (int k = 0; k < 3; ++k) sm.vertex_uv[m.triangles[t][k]] = patch_to_uv(g, m.triangle_patch[t], m.triangle_uv[t][k]);
+  }
+  sm.kept.assign(m.triangles.size(), false);
+  sm.mesh_vertex.assign(m.positions.size(), std::numeric_limits<uint32_t>::max());
+  const Vec2 scale(g.su, g.sv);
+  for (size_t t = 0; t < m.triangles.size(); ++t) {
+    std::array<Vec2, 3> q;
+    for (int k = 0; k < 3; ++k) q[k] = sm.vertex_uv[m.triangles[t][k]] * scale;
+    const double size = std::max({glm::length(q[1] - q[0]), glm::length(q[2] - q[1]), glm::length(q[0] - q[2])});
+    const Vec2 lo = glm::min(q[0], glm::min(q[1], q[2])) - Vec2(0.5 * size);
+    const Vec2 hi = glm::max(q[0], glm::max(q[1], q[2])) + Vec2(0.5 * size);
+    if (grid.any_near(lo, hi)) continue;
+    sm.kept[t] = grid.inside((q[0] + q[1] + q[2]) / 3.0);
+  }
+  return sm;
+}
+
+// Tessellates one face into the part; false (pf.reason set) when it cannot.
+bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
+  std::vector<LoopPoint> loop;
+  std::vector<std::array<uint32_t, 2>> segments;
+  if (!face_loops(b, g, loop, segments, pf)) return false;
+  if (segments.size() < 2) {
+    pf.reason = "the face's boundary has no extent in its parameters";
+    return false;
+  }
+  const SegmentGrid grid(loop, segments);
+  SchemeMesh sm = scheme_mesh(b, g, grid);
+  const Tessellation& m = sm.mesh;
+  const Vec2 scale(g.su, g.sv);
+
+  // CDT input: the loop points, then the kept triangles' vertices; constraints: the loop chords and
+  // the kept triangles' edges (so each kept triangle is a face of the CDT).
+  std::vector<Vec2> points;
+  std::vector<uint32_t> vertex;  // per CDT input point: its mesh vertex
+  for (const LoopPoint& p : loop) points.push_back(p.q), vertex.push_back(p.vertex);
+  std::vector<std::array<uint32_t, 2>> constraints = segments;
+  std::vector<uint32_t> scheme_point(m.positions.size(), std::numeric_limits<uint32_t>::max());
+  std::unordered_set<std::array<uint32_t, 3>, KeyHash> kept_keys;
+  std::set<std::pair<uint32_t, uint32_t>> kept_edges;
+  for (size_t t = 0; t < m.triangles.size(); ++t) {
+    if (!sm.kept[t]) continue;
+    std::array<uint32_t, 3> key;
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t v = m.triangles[t][k];
+      if (sm.mesh_vertex[v] == std::numeric_limits<uint32_t>::max()) {
+        sm.mesh_vertex[v] = b.add_vertex(m.positions[v]);
+        const auto [patch, st] = locate_patch(g, sm.vertex_uv[v].x, sm.vertex_uv[v].y);
+        b.out.mesh.surface_points[sm.mesh_vertex[v]] = {static_cast<uint32_t>(pf.first_patch + patch), st.x, st.y};
+        b.surface_point_set[sm.mesh_vertex[v]] = true;
+        scheme_point[v] = static_cast<uint32_t>(points.size());
+        points.push_back(sm.vertex_uv[v] * scale);
+        vertex.push_back(sm.mesh_vertex[v]);
+      }
+      key[k] = sm.mesh_vertex[v];
+    }
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = m.triangles[t][k], c = m.triangles[t][(k + 1) % 3];
+      if (kept_edges.insert({std::min(a, c), std::max(a, c)}).second) constraints.push_back({scheme_point[a], scheme_point[c]});
+    }
+    std::sort(key.begin(), key.end());
+    kept_keys.insert(key);
+  }
+  const detail::CdtResult cdt = detail::constrained_delaunay(points, constraints, segments.size());
+  for (size_t k = points.size(); k < cdt.points.size(); ++k) vertex.push_back(b.add_vertex(eval_uv(g, cdt.points[k] / scale)));
+  // The scheme's kept triangles as the scheme made them, then the CDT's faces inside the loops
+  // that are not kept triangles.
+  for (size_t t = 0; t < m.triangles.size(); ++t) {
+    if (!sm.kept[t]) continue;
+    std::array<uint32_t, 3> tri;
+    std::array<Vec2, 3> uv;
+    for (int k = 0; k < 3; ++k) tri[k] = sm.mesh_vertex[m.triangles[t][k]], uv[k] = sm.vertex_uv[m.triangles[t][k]];
+    emit_triangle(b, g, pf, tri, uv);
+    ++pf.scheme_triangles;
+  }
+  for (size_t c = 0; c < cdt.triangles.size(); ++c) {
+    if (!cdt.inside[c]) continue;
+    const auto& face = cdt.triangles[c];
+    std::array<Vec2, 3> q;
+    for (int k = 0; k < 3; ++k) q[k] = cdt.points[face[k]];
+    std::array<uint32_t, 3> tri;
+    std::array<Vec2, 3> uv;
+    for (int k = 0; k < 3; ++k) tri[k] = vertex[face[k]], uv[k] = q[k] / scale;
+    std::array<uint32_t, 3> key = tri;
+    std::sort(key.begin(), key.end());
+    if (kept_keys.count(key)) continue;
+    if (g.reversed) std::swap(tri[1], tri[2]), std::swap(uv[1], uv[2]);
+    emit_triangle(b, g, pf, tri, uv);
+  }
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+std::vector<PartSolid> solid_facts(const ShapeIndex& x) {
+  std::vector<PartSolid> solids;
+  for (int s = 1; s <= x.solids.Extent(); ++s) {
+    PartSolid ps;
+    ps.index = s - 1;
+    const TopoDS_Shape& solid = x.solids(s);
+    ps.closed = true;
+    bool any_shell = false;
+    for (TopExp_Explorer it(solid, TopAbs_SHELL); it.More(); it.Next()) {
+      any_shell = true;
+      ps.closed = ps.closed && BRep_Tool::IsClosed(it.Current());
+    }
+    ps.closed = ps.closed && any_shell;
+    try {
+      ps.valid = BRepCheck_Analyzer(solid).IsValid();
+      GProp_GProps props;
+      BRepGProp::VolumeProperties(solid, props);
+      ps.volume = props.Mass();
+    } catch (const Standard_Failure&) {
+      ps.valid = false;
+    }
+    solids.push_back(ps);
+  }
+  return solids;
+}
+
+void check_scheme(const PartOptions& options, const std::string& name) {
+  if (options.scheme.scheme == Scheme::kPn) {
+    throw InputError(name + ": pn is a scheme for triangle meshes; tessellate the part with uniform or esc");
+  }
+}
+
+PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const PartOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  check_scheme(options, name);
+  PartMesh out;
+  out.name = name;
+  out.model.name = name;
+  const ShapeIndex x = index_shape(shape);
+  if (x.faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
+  std::vector<FaceGeometry> geometry;
+  for (int f = 0; f < x.faces.Extent(); ++f) geometry.push_back(face_geometry(x, f, name, options.cad));
+  PartBuilder b{options, x, geometry, out, {}, {}};
+  for (int v = 1; v <= x.vertices.Extent(); ++v) b.add_vertex(to_vec(BRep_Tool::Pnt(TopoDS::Vertex(x.vertices(v)))));
+  b.edges.resize(x.edges.Extent());
+  for (int e = 0; e < x.edges.Extent(); ++e) sample_edge(b, e);
+  Vec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  for (const Vec3& p : out.mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  const double size = out.mesh.positions.empty() ? 0.0 : glm::length(hi - lo);
+  for (double& tol : b.vertex_tolerance) tol = 1e-9 * size;
+  for (int v = 1; v <= x.vertices.Extent(); ++v)
+    b.vertex_tolerance[v - 1] = std::max(1e-9 * size, 10.0 * BRep_Tool::Tolerance(TopoDS::Vertex(x.vertices(v))));
+  out.edges = x.edges.Extent();
+  out.edge_vertices = out.mesh.positions.size();
+  for (const EdgeSamples& s : b.edges) {
+    if (!s.free) continue;
+    for (size_t k = 0; k + 1 < s.vertex.size(); ++k) out.boundary_edges.push_back({s.vertex[k], s.vertex[k + 1]});
+  }
+  out.solids = solid_facts(x);
+  for (FaceGeometry& g : geometry) {
+    PartFace pf;
+    pf.face_index = g.report.face_index;
+    pf.name = g.report.name;
+    pf.surface_type = g.report.surface_type;
+    pf.trimmed = g.report.status == "trimmed";
+    pf.solid = g.solid;
+    pf.status = "skipped";
+    if (g.patches.empty()) {
+      pf.reason = g.report.reason;
+    } else {
+      pf.first_patch = static_cast<int>(out.model.patches.size());
+      pf.patch_count = static_cast<int>(g.patches.size());
+      out.model.patches.insert(out.model.patches.end(), g.patches.begin(), g.patches.end());
+      try {
+        if (mesh_face(b, g, pf)) pf.status = "tessellated";
+      } catch (const Standard_Failure& e) {
+        pf.reason = std::string("OCCT failed on the face (") + e.GetMessageString() + ")";
+      }
+    }
+    if (pf.status == "skipped" && pf.reason.empty()) pf.reason = "no triangles";
+    out.faces_tessellated += pf.status == "tessellated";
+    out.faces_skipped += pf.status == "skipped";
+    out.faces_trimmed += pf.trimmed;
+    if (pf.solid >= 0) {
+      ++out.solids[pf.solid].faces;
+      out.solids[pf.solid].triangles += pf.triangles;
+    }
+    out.faces.push_back(pf);
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+}  // namespace
+
+PartMesh mesh_part_file(const std::string& path, const PartOptions& options) {
+  check_scheme(options, path);
+  return mesh_shape(read_cad_shape(path), path, options);
+}
+
+PartMesh mesh_part_brep_string(const std::string& brep_text, const std::string& name, const PartOptions& options) {
+  check_scheme(options, name);
+  return mesh_shape(read_brep_shape(brep_text, name), name, options);
+}
+
+}  // namespace sagitta::occt
