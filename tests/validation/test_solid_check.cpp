@@ -248,6 +248,7 @@ TEST(SolidCheck, MissingTriangleLeavesThreeCracks) {
   EXPECT_EQ(c.crack_edges, 3u);
   EXPECT_EQ(c.model_boundary_edges, 0u);
   EXPECT_FALSE(c.closed);
+  EXPECT_EQ(c.signed_volume, 0.0);  // no enclosed volume
   ASSERT_EQ(count_kind(c, "crack_edge"), 3u);
   for (const TopologyFinding& f : c.findings) {
     if (f.kind != "crack_edge") continue;
@@ -356,6 +357,25 @@ TEST(SolidCheck, InsideOutCubeHasNegativeVolume) {
   EXPECT_TRUE(c.cgal_closed);
   EXPECT_FALSE(c.cgal_outward);
   EXPECT_NEAR(c.cgal_volume, -8.0, 1e-12 * 8.0);
+}
+
+TEST(SolidCheck, DegenerateTriangleIsNotASelfIntersection) {
+  Part part;
+  const uint32_t a = part.vertex({0.0, 0.0, 0.0});
+  part.vertex({1.0, 0.0, 0.0});
+  part.vertex({0.0, 1.0, 0.0});
+  const uint32_t d = part.vertex({5.0, 0.0, 0.0});
+  part.vertex({6.0, 1.0, 1.0});
+  part.vertex({7.0, 2.0, 2.0});  // on the line through the previous two
+  part.triangle(a, a + 1, a + 2, -1);
+  part.triangle(d, d + 1, d + 2, -1);
+  const SolidCheck c = check(part).at(0);
+  EXPECT_EQ(c.degenerate_triangles, 1u);
+  EXPECT_EQ(c.components, 2u);
+  EXPECT_EQ(c.open_edges, 6u);
+  EXPECT_EQ(c.euler_characteristic, 6 - 6 + 2);
+  ASSERT_TRUE(c.cgal_checked) << c.cgal_note;
+  EXPECT_EQ(c.cgal_self_intersections, 0u);  // CGAL pairs the collinear face with itself: not counted
 }
 
 TEST(SolidCheck, BadInputThrows) {

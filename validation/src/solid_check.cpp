@@ -181,7 +181,7 @@ SolidCheck check_solid(int32_t id, const SubMesh& s, const std::unordered_set<ui
   c.components = r.components;
   c.euler_characteristic = int64_t(c.vertices) - int64_t(c.edges) + int64_t(c.triangles);
   c.closed = c.open_edges == 0 && c.non_manifold_edges == 0 && c.inconsistent_orientation_edges == 0;
-  c.signed_volume = signed_volume(s.mesh);
+  if (c.closed) c.signed_volume = signed_volume(s.mesh);
   // Without a model every open edge is a crack there; the split comes from the boundary edges.
   for (const TopologyFinding& f : r.findings) {
     if (f.kind != "crack_edge") c.findings.push_back(to_whole(f, s));

@@ -31,8 +31,8 @@ struct SolidCheck {
   uint64_t components = 0;           // connected through shared vertices
   int64_t euler_characteristic = 0;  // V - E + F over the solid's used vertices, edges, triangles
   bool closed = false;               // no open, non-manifold or inconsistently oriented edge
-  // Divergence theorem: the sum of the tetrahedra from the solid's box centre to its triangles,
-  // > 0 when they wind counter-clockwise seen from outside. The enclosed volume only when closed.
+  // Enclosed volume by the divergence theorem (the tetrahedra from the solid's box centre to its
+  // triangles), > 0 when they wind counter-clockwise seen from outside; 0 when not closed.
   double signed_volume = 0.0;
   // Independent verdicts from CGAL (Surface_mesh built from the solid's triangles + Polygon_mesh_processing):
   bool cgal_checked = false;
