@@ -23,6 +23,23 @@ nlohmann::json interval_json(const DistanceInterval& d) {
   return j;
 }
 
+namespace {
+
+// Topology findings: kind, position, patch, triangle, vertices.
+nlohmann::json findings_json(const std::vector<TopologyFinding>& findings) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const TopologyFinding& f : findings) {
+    list.push_back({{"kind", f.kind},
+                    {"position", vec_json(f.position)},
+                    {"patch", f.patch},
+                    {"triangle", f.triangle},
+                    {"vertices", {f.vertices[0], f.vertices[1]}}});
+  }
+  return list;
+}
+
+}  // namespace
+
 nlohmann::json topology_report_json(const TopologyReport& t) {
   nlohmann::json j;
   j["edges"] = t.edges;
@@ -51,16 +68,39 @@ nlohmann::json topology_report_json(const TopologyReport& t) {
   j["watertight"] = t.watertight();
   j["open_edges_classified_by"] =
       t.classified_with_uv ? "patch (u, v)" : "distance to the model's free boundary curves";
-  nlohmann::json list = nlohmann::json::array();
-  for (const TopologyFinding& f : t.findings) {
-    list.push_back({{"kind", f.kind},
-                    {"position", vec_json(f.position)},
-                    {"patch", f.patch},
-                    {"triangle", f.triangle},
-                    {"vertices", {f.vertices[0], f.vertices[1]}}});
-  }
-  j["findings"] = list;
+  j["findings"] = findings_json(t.findings);
   return j;
+}
+
+nlohmann::json solid_checks_json(const std::vector<SolidCheck>& checks) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const SolidCheck& c : checks) {
+    nlohmann::json j;
+    j["solid"] = c.solid;
+    j["triangles"] = c.triangles;
+    j["vertices"] = c.vertices;
+    j["edges"] = c.edges;
+    j["open_edges"] = c.open_edges;
+    j["model_boundary_edges"] = c.model_boundary_edges;
+    j["crack_edges"] = c.crack_edges;
+    j["non_manifold_edges"] = c.non_manifold_edges;
+    j["t_junctions"] = c.t_junctions;
+    j["inconsistent_orientation_edges"] = c.inconsistent_orientation_edges;
+    j["degenerate_triangles"] = c.degenerate_triangles;
+    j["components"] = c.components;
+    j["euler_characteristic"] = c.euler_characteristic;
+    j["closed"] = c.closed;
+    j["signed_volume"] = c.closed ? nlohmann::json(c.signed_volume) : nlohmann::json(nullptr);
+    j["cgal_checked"] = c.cgal_checked;
+    j["cgal_note"] = c.cgal_note;
+    j["cgal_closed"] = c.cgal_closed;
+    j["cgal_outward"] = c.cgal_outward;
+    j["cgal_self_intersections"] = c.cgal_self_intersections;
+    j["cgal_volume"] = c.cgal_closed ? nlohmann::json(c.cgal_volume) : nlohmann::json(nullptr);
+    j["findings"] = findings_json(c.findings);
+    list.push_back(std::move(j));
+  }
+  return list;
 }
 
 nlohmann::json topology_json(const Model& model, const Topology& topo) {

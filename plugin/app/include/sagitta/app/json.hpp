@@ -6,6 +6,7 @@
 #include "sagitta/mesh_check.hpp"
 #include "sagitta/model.hpp"
 #include "sagitta/scheme.hpp"
+#include "sagitta/solid_check.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -19,6 +20,9 @@ nlohmann::json number_or_null(double x);
 nlohmann::json interval_json(const DistanceInterval& interval);
 // A mesh topology verdict with its findings.
 nlohmann::json topology_report_json(const TopologyReport& report);
+// Per-solid verdicts of a whole-part mesh, one object per solid, keys named like SolidCheck's
+// fields; signed_volume is null unless closed, cgal_volume unless CGAL found it closed.
+nlohmann::json solid_checks_json(const std::vector<SolidCheck>& checks);
 // Topology summary of a patch model for stats files.
 nlohmann::json topology_json(const Model& model, const Topology& topology);
 
