@@ -147,6 +147,14 @@ std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1,
     // bounds may exceed a period or the surface's own bounds by a tolerance; clamp them first.
     double a, b, c, d;
     s->Bounds(a, b, c, d);
+    // A start a rounding error below a period's start (-4e-13 on a full cylinder) makes OCCT's
+    // conversion fail; it is snapped to the multiple of the period.
+    const auto snap = [](double& x, double period) {
+      const double k = std::round(x / period) * period;
+      if (std::abs(x - k) <= 1e-9 * period) x = k;
+    };
+    if (s->IsUPeriodic()) snap(u0, s->UPeriod());
+    if (s->IsVPeriodic()) snap(v0, s->VPeriod());
     if (s->IsUPeriodic()) u1 = std::min(u1, u0 + s->UPeriod());
     else u0 = std::max(u0, a), u1 = std::min(u1, b);
     if (s->IsVPeriodic()) v1 = std::min(v1, v0 + s->VPeriod());

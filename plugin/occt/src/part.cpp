@@ -45,6 +45,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -106,6 +108,7 @@ struct FaceGeometry {
   bool reversed = false;
   int nu = 0, nv = 0;             // patch grid
   double su = 1.0, sv = 1.0;      // scale of U and V in the CDT (mean |dS/dU|, |dS/dV|)
+  double u_period = 0.0, v_period = 0.0;  // of the face's surface (0: not periodic)
   int solid = -1;
 };
 
@@ -169,6 +172,22 @@ Vec2 face_to_uv(const FaceGeometry& g, double u, double v) {
   return Vec2(U, V);
 }
 
+// A p-curve of a periodic surface may run whole periods away from the range the patches cover
+// (u in [-0.58, 2.56] on a face over [5.70, 8.84]). The shift (a multiple of each period) that
+// brings the curve's middle closest to the range; one shift for the whole curve, so that a curve
+// running along a full period stays in one piece.
+Vec2 pcurve_shift(const FaceGeometry& g, const Handle(Geom2d_Curve)& pc, double first, double last) {
+  const gp_Pnt2d mid = pc->Value(0.5 * (first + last));
+  const auto shift = [](double x, double lo, double hi, double period) {
+    if (period <= 0.0) return 0.0;
+    const auto outside = [&](double y) { return std::max({lo - y, y - hi, 0.0}); };
+    const double k = std::round((0.5 * (lo + hi) - x) / period);
+    return outside(x + k * period) + 1e-9 * period < outside(x) ? k * period : 0.0;
+  };
+  return Vec2(shift(mid.X(), g.report.u_breaks.front(), g.report.u_breaks.back(), g.u_period),
+              shift(mid.Y(), g.report.v_breaks.front(), g.report.v_breaks.back(), g.v_period));
+}
+
 // Mean |dS/dU| and |dS/dV| over the patches (3 x 3 points each): the CDT's scale, so that its
 // Delaunay criterion sees triangles shaped roughly as they are in space.
 void set_scale(FaceGeometry& g) {
@@ -202,6 +221,13 @@ FaceGeometry face_geometry(const ShapeIndex& x, int f, const std::string& name, 
   if (k > 0 && !x.face_solids(k).IsEmpty()) g.solid = x.solids.FindIndex(x.face_solids(k).First()) - 1;
   if (g.patches.empty()) return g;
   g.surface = BRep_Tool::Surface(g.face);
+  {
+    Handle(Geom_Surface) basis = g.surface;
+    while (basis->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))
+      basis = Handle(Geom_RectangularTrimmedSurface)::DownCast(basis)->BasisSurface();
+    if (basis->IsUPeriodic()) g.u_period = basis->UPeriod();
+    if (basis->IsVPeriodic()) g.v_period = basis->VPeriod();
+  }
   g.nu = static_cast<int>(g.report.u_breaks.size()) - 1;
   g.nv = static_cast<int>(g.report.v_breaks.size()) - 1;
   if (g.converted.IsNull() == false) {
@@ -242,9 +268,10 @@ double grid_length(const FaceGeometry& g, const TopoDS_Edge& edge) {
   if (pc.IsNull()) return 0.0;
   double length = 0.0;
   Vec2 prev(0.0);
+  const Vec2 shift = pcurve_shift(g, pc, f, l);
   for (int k = 0; k <= 32; ++k) {
     const gp_Pnt2d q = pc->Value(f + (l - f) * k / 32.0);
-    const Vec2 UV = face_to_uv(g, q.X(), q.Y());
+    const Vec2 UV = face_to_uv(g, q.X() + shift.x, q.Y() + shift.y);
     const auto [i, s] = locate_span(g.report.u_breaks, UV.x);
     const auto [j, t] = locate_span(g.report.v_breaks, UV.y);
     const Vec2 grid(i + s, j + t);
@@ -331,6 +358,11 @@ void sample_edge(PartBuilder& b, int e) {
   double first = 0.0, last = 0.0;
   BRep_Tool::Range(edge, first, last);
   const std::vector<int> faces = faces_of_edge(b.x, edge);
+  if (std::getenv("SAGITTA_DEBUG_EDGES")) {
+    std::fprintf(stderr, "edge E%d faces:", e);
+    for (int f : faces) std::fprintf(stderr, " %d", f + 1);
+    std::fprintf(stderr, "\n");
+  }
   const int segs = scheme_segments(b.options.scheme);
   int n = 1;
   for (int f : faces) {
@@ -468,10 +500,14 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
     }
     const double first = s.t.front(), last = s.t.back();
     const bool same = BRep_Tool::SameParameter(edge) && BRep_Tool::SameRange(edge);
+    const Vec2 shift = pcurve_shift(g, pc, f, l);
     const auto uv_at = [&](double t) {
       const double p = same || last == first ? t : f + (t - first) * (l - f) / (last - first);
       const gp_Pnt2d uv = pc->Value(p);
-      return face_to_uv(g, uv.X(), uv.Y());
+      const Vec2 UV = face_to_uv(g, uv.X() + shift.x, uv.Y() + shift.y);
+      if (const char* dbg = std::getenv("SAGITTA_DEBUG_FACE"); dbg && std::atoi(dbg) == g.report.face_index + 1)
+        std::fprintf(stderr, "  uv %.9g %.9g -> %.9g %.9g  [%g %g]x[%g %g] conv %d\n", uv.X(), uv.Y(), UV.x, UV.y, g.report.u_breaks.front(), g.report.u_breaks.back(), g.report.v_breaks.front(), g.report.v_breaks.back(), int(!g.converted.IsNull()));
+      return UV;
     };
     if (s.degenerated) {
       const Vec2 UV = uv_at(0.5 * (first + last));
@@ -479,6 +515,8 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
       continue;
     }
     const uint32_t start = static_cast<uint32_t>(points.size());
+    if (const char* dbg = std::getenv("SAGITTA_DEBUG_FACE"); dbg && std::atoi(dbg) == g.report.face_index + 1)
+      std::fprintf(stderr, "E%d samples %zu v%u..v%u same %d t [%g %g] pc [%g %g] ori %d\n", e, s.t.size(), s.vertex.front(), s.vertex.back(), int(same), first, last, f, l, int(edge.Orientation()));
     for (size_t k = 0; k < s.t.size(); ++k) {
       const Vec2 UV = uv_at(s.t[k]);
       points.push_back({Vec2(UV.x * g.su, UV.y * g.sv), s.vertex[k]});
@@ -638,6 +676,11 @@ bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
     kept_keys.insert(key);
   }
   const detail::CdtResult cdt = detail::constrained_delaunay(points, constraints, segments.size());
+  if (const char* dbg = std::getenv("SAGITTA_DEBUG_FACE"); dbg && std::atoi(dbg) == g.report.face_index + 1) {
+    for (size_t k = 0; k < loop.size(); ++k) std::fprintf(stderr, "P%zu %.9g %.9g v%u\n", k, loop[k].q.x, loop[k].q.y, loop[k].vertex);
+    for (const auto& sgm : segments) std::fprintf(stderr, "S %u %u\n", sgm[0], sgm[1]);
+    for (size_t c = 0; c < cdt.triangles.size(); ++c) std::fprintf(stderr, "T %u %u %u in %d\n", cdt.triangles[c][0], cdt.triangles[c][1], cdt.triangles[c][2], int(cdt.inside[c]));
+  }
   for (size_t k = points.size(); k < cdt.points.size(); ++k) vertex.push_back(b.add_vertex(eval_uv(g, cdt.points[k] / scale)));
   // The scheme's kept triangles as the scheme made them, then the CDT's faces inside the loops
   // that are not kept triangles.

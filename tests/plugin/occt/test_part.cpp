@@ -100,7 +100,7 @@ TEST(Part, ProbeSharedFiles) {
         }
         int shown = 0;
         for (const auto& [e, ts] : uses) {
-          if (ts.size() == 2 || shown > 12) continue;
+          if (ts.size() == 2 || shown > 40) continue;
           ++shown;
           std::printf("    edge %u-%u:", e.first, e.second);
           for (size_t t : ts) std::printf(" t%zu(face %u)", t, part.triangle_face[t] + 1);
