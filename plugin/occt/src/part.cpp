@@ -21,6 +21,7 @@
 #include <BRepAdaptor_Curve.hxx>
 #include <BRepCheck_Analyzer.hxx>
 #include <BRepGProp.hxx>
+#include <BRepTools_WireExplorer.hxx>
 #include <BRep_Tool.hxx>
 #include <GProp_GProps.hxx>
 #include <Geom2d_Curve.hxx>
@@ -39,6 +40,7 @@
 #include <TopoDS_Shell.hxx>
 #include <TopoDS_Solid.hxx>
 #include <TopoDS_Vertex.hxx>
+#include <TopoDS_Wire.hxx>
 #include <gp_Pnt2d.hxx>
 #include <gp_Vec.hxx>
 
@@ -139,18 +141,33 @@ Vec2 patch_to_uv(const FaceGeometry& g, int patch, const Vec2& st) {
               lerp(g.report.v_breaks[j], g.report.v_breaks[j + 1], t));
 }
 
-Vec3 eval_uv(const FaceGeometry& g, const Vec2& UV) {
+std::pair<Vec2, Vec2> wrap_uv(const FaceGeometry& g, const Vec2& UV);
+
+Vec3 eval_uv(const FaceGeometry& g, const Vec2& unwrapped) {
+  const Vec2 UV = wrap_uv(g, unwrapped).first;
   const auto [p, st] = locate_patch(g, UV.x, UV.y);
   const auto e = de_casteljau<double>(g.patches[p], clamp(st.x, 0.0, 1.0), clamp(st.y, 0.0, 1.0));
   return Vec3(e[0], e[1], e[2]);
 }
 
-// The patch parameters (U, V) of the face's point (u, v) (see FaceGeometry).
+// x's copy a whole number of periods away that lies in [lo, hi], and the shift removed (x itself
+// and 0 when the direction is not periodic or x is in range).
+std::pair<double, double> wrap(double x, double lo, double hi, double period) {
+  if (period <= 0.0 || (x >= lo - 1e-9 * period && x <= hi + 1e-9 * period)) return {x, 0.0};
+  const double shift = std::floor((x - lo) / period) * period;
+  return {x - shift, shift};
+}
+
+// The patch parameters (U, V) of the face's point (u, v) (see FaceGeometry). In a periodic
+// direction (u, v) may lie whole periods away from the patches' range (a face winding around its
+// surface's seam): the result keeps that offset, so loops stay continuous in the (U, V) plane.
 Vec2 face_to_uv(const FaceGeometry& g, double u, double v) {
   const std::vector<double>& ub = g.report.u_breaks;
   const std::vector<double>& vb = g.report.v_breaks;
-  double U = clamp(u, ub.front(), ub.back()), V = clamp(v, vb.front(), vb.back());
-  if (g.converted.IsNull()) return Vec2(U, V);
+  const auto [wu, shift_u] = wrap(u, ub.front(), ub.back(), g.u_period);
+  const auto [wv, shift_v] = wrap(v, vb.front(), vb.back(), g.v_period);
+  double U = clamp(wu, ub.front(), ub.back()), V = clamp(wv, vb.front(), vb.back());
+  if (g.converted.IsNull()) return Vec2(U + shift_u, V + shift_v);
   const gp_Pnt target = g.surface->Value(u, v);
   for (int iteration = 0; iteration < 40; ++iteration) {
     gp_Pnt p;
@@ -169,7 +186,14 @@ Vec2 face_to_uv(const FaceGeometry& g, double u, double v) {
     U = U1, V = V1;
     if (converged) break;
   }
-  return Vec2(U, V);
+  return Vec2(U + shift_u, V + shift_v);
+}
+
+// (U, V) moved whole periods into the patches' range, and the shift removed.
+std::pair<Vec2, Vec2> wrap_uv(const FaceGeometry& g, const Vec2& UV) {
+  const auto [u, su] = wrap(UV.x, g.report.u_breaks.front(), g.report.u_breaks.back(), g.u_period);
+  const auto [v, sv] = wrap(UV.y, g.report.v_breaks.front(), g.report.v_breaks.back(), g.v_period);
+  return {Vec2(u, v), Vec2(su, sv)};
 }
 
 // A p-curve of a periodic surface may run whole periods away from the range the patches cover
@@ -477,8 +501,11 @@ class SegmentGrid {
   std::vector<std::vector<uint32_t>> grid_, rows_;
 };
 
-// The face's loops as chords between shared edge samples. Returns false (with a reason) when an
-// edge has no p-curve on the face.
+// The face's loops as chords between shared edge samples, in the (U, V) plane scaled by (su, sv).
+// Each wire is walked in order (BRepTools_WireExplorer) and each edge's p-curve is moved by whole
+// periods so that it starts where the previous one ended: a loop around a periodic surface stays
+// in one piece, and a seam's two copies land on the two sides of the domain. Returns false (with
+// a reason) when an edge has no p-curve on the face.
 bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& points,
                 std::vector<std::array<uint32_t, 2>>& segments, PartFace& pf) {
   // A degenerated edge (pole, apex) is one mesh vertex but a segment in (U, V). Were its samples
@@ -487,49 +514,74 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
   // middle, and the segment itself is left out (the triangles there fan around the pole).
   std::map<uint32_t, Vec2> pole;
   std::vector<std::pair<uint32_t, uint32_t>> ranges;  // per edge: [first, last) in points
-  for (TopExp_Explorer it(g.face, TopAbs_EDGE); it.More(); it.Next()) {
-    const TopoDS_Edge edge = TopoDS::Edge(it.Current());
-    if (edge.Orientation() == TopAbs_INTERNAL || edge.Orientation() == TopAbs_EXTERNAL) continue;
+  std::set<std::pair<int, int>> done;                 // (edge, orientation) already walked
+  bool missing_pcurve = false;
+  const auto walk = [&](const TopoDS_Edge& edge, bool first_in_wire, Vec2& previous_end) {
+    if (edge.Orientation() == TopAbs_INTERNAL || edge.Orientation() == TopAbs_EXTERNAL) return;
     const int e = b.x.edges.FindIndex(edge) - 1;
+    if (e < 0 || !done.insert({e, int(edge.Orientation())}).second) return;
     const EdgeSamples& s = b.edges[e];
     double f = 0.0, l = 0.0;
     const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(edge, g.face, f, l);
     if (pc.IsNull()) {
       pf.reason = "edge " + std::to_string(e + 1) + " has no curve on the face's surface";
-      return false;
+      missing_pcurve = true;
+      return;
     }
     const double first = s.t.front(), last = s.t.back();
     const bool same = BRep_Tool::SameParameter(edge) && BRep_Tool::SameRange(edge);
-    const Vec2 shift = pcurve_shift(g, pc, f, l);
-    const auto uv_at = [&](double t) {
+    const auto raw = [&](double t) {
       const double p = same || last == first ? t : f + (t - first) * (l - f) / (last - first);
       const gp_Pnt2d uv = pc->Value(p);
-      const Vec2 UV = face_to_uv(g, uv.X() + shift.x, uv.Y() + shift.y);
-      if (const char* dbg = std::getenv("SAGITTA_DEBUG_FACE"); dbg && std::atoi(dbg) == g.report.face_index + 1)
-        std::fprintf(stderr, "  uv %.9g %.9g -> %.9g %.9g  [%g %g]x[%g %g] conv %d\n", uv.X(), uv.Y(), UV.x, UV.y, g.report.u_breaks.front(), g.report.u_breaks.back(), g.report.v_breaks.front(), g.report.v_breaks.back(), int(!g.converted.IsNull()));
-      return UV;
+      return Vec2(uv.X(), uv.Y());
     };
+    const bool reversed = edge.Orientation() == TopAbs_REVERSED;
+    Vec2 shift = pcurve_shift(g, pc, f, l);
+    if (!first_in_wire) {
+      const Vec2 start = raw(reversed ? last : first);
+      if (g.u_period > 0.0) shift.x = std::round((previous_end.x - start.x) / g.u_period) * g.u_period;
+      if (g.v_period > 0.0) shift.y = std::round((previous_end.y - start.y) / g.v_period) * g.v_period;
+    }
+    const auto uv_at = [&](double t) {
+      const Vec2 r = raw(t);
+      return face_to_uv(g, r.x + shift.x, r.y + shift.y);
+    };
+    const Vec2 end = raw(reversed ? first : last);
+    previous_end = Vec2(end.x + shift.x, end.y + shift.y);
     if (s.degenerated) {
       const Vec2 UV = uv_at(0.5 * (first + last));
       pole.emplace(s.vertex.front(), Vec2(UV.x * g.su, UV.y * g.sv));
-      continue;
+      return;
     }
     const uint32_t start = static_cast<uint32_t>(points.size());
-    if (const char* dbg = std::getenv("SAGITTA_DEBUG_FACE"); dbg && std::atoi(dbg) == g.report.face_index + 1)
-      std::fprintf(stderr, "E%d samples %zu v%u..v%u same %d t [%g %g] pc [%g %g] ori %d\n", e, s.t.size(), s.vertex.front(), s.vertex.back(), int(same), first, last, f, l, int(edge.Orientation()));
     for (size_t k = 0; k < s.t.size(); ++k) {
       const Vec2 UV = uv_at(s.t[k]);
       points.push_back({Vec2(UV.x * g.su, UV.y * g.sv), s.vertex[k]});
       const double offset = glm::length(b.out.mesh.positions[s.vertex[k]] - eval_uv(g, UV));
       pf.max_boundary_offset = std::max(pf.max_boundary_offset, offset);
       if (!b.surface_point_set[s.vertex[k]]) {
-        const auto [patch, st] = locate_patch(g, UV.x, UV.y);
+        const Vec2 w = wrap_uv(g, UV).first;
+        const auto [patch, st] = locate_patch(g, w.x, w.y);
         b.out.mesh.surface_points[s.vertex[k]] = {static_cast<uint32_t>(pf.first_patch + patch), st.x, st.y};
         b.surface_point_set[s.vertex[k]] = true;
       }
     }
     ranges.push_back({start, static_cast<uint32_t>(points.size())});
+  };
+  for (TopExp_Explorer w(g.face, TopAbs_WIRE); w.More(); w.Next()) {
+    Vec2 previous_end(0.0);
+    bool first_in_wire = true;
+    for (BRepTools_WireExplorer it(TopoDS::Wire(w.Current()), g.face); it.More(); it.Next()) {
+      walk(it.Current(), first_in_wire, previous_end);
+      first_in_wire = false;
+    }
   }
+  // Edges the wire explorer does not reach (a wire that is not a simple chain) on their own.
+  for (TopExp_Explorer it(g.face, TopAbs_EDGE); it.More(); it.Next()) {
+    Vec2 unused(0.0);
+    walk(TopoDS::Edge(it.Current()), true, unused);
+  }
+  if (missing_pcurve) return false;
   // Two loop points of one vertex (an edge's end and the next edge's start, both ends of a closed
   // edge) come from different p-curves and differ by rounding or the B-rep's tolerance; left apart
   // they would open the loop. Copies further apart than the vertex's tolerance (a seam's two sides)
@@ -570,7 +622,8 @@ void emit_triangle(PartBuilder& b, const FaceGeometry& g, PartFace& pf, std::arr
     ++b.out.mesh.degenerate_triangles;
     return;
   }
-  const Vec2 centre = (uv[0] + uv[1] + uv[2]) / 3.0;
+  const auto [centre, shift] = wrap_uv(g, (uv[0] + uv[1] + uv[2]) / 3.0);
+  for (Vec2& c : uv) c -= shift;
   const int patch = locate_patch(g, centre.x, centre.y).first;
   const int i = patch / g.nv, j = patch % g.nv;
   std::array<Vec2, 3> st;
