@@ -673,13 +673,65 @@ SchemeMesh scheme_mesh(PartBuilder& b, const FaceGeometry& g, const SegmentGrid&
   for (size_t t = 0; t < m.triangles.size(); ++t) {
     std::array<Vec2, 3> q;
     for (int k = 0; k < 3; ++k) q[k] = sm.vertex_uv[m.triangles[t][k]] * scale;
-    const double size = std::max({glm::length(q[1] - q[0]), glm::length(q[2] - q[1]), glm::length(q[0] - q[2])});
-    const Vec2 lo = glm::min(q[0], glm::min(q[1], q[2])) - Vec2(0.5 * size);
-    const Vec2 hi = glm::max(q[0], glm::max(q[1], q[2])) + Vec2(0.5 * size);
+    // Clear of the loops by half the triangle's extent along each axis (cells may be long and thin).
+    const Vec2 box_lo = glm::min(q[0], glm::min(q[1], q[2])), box_hi = glm::max(q[0], glm::max(q[1], q[2]));
+    const Vec2 lo = box_lo - 0.5 * (box_hi - box_lo), hi = box_hi + 0.5 * (box_hi - box_lo);
     if (grid.any_near(lo, hi)) continue;
     sm.kept[t] = grid.inside((q[0] + q[1] + q[2]) / 3.0);
   }
   return sm;
+}
+
+// The scheme's vertices that no kept triangle uses but that lie inside the loops, clear of them by
+// a third of their shortest scheme edge, become free points of the CDT: the region between the kept
+// triangles and the loops keeps the scheme's density (without them a half cylinder with only its
+// boundary points would be cut by chords through its axis). Where the loops run whole periods past
+// the patches (a face winding around a seam) the copies one period away are used too.
+void add_free_points(PartBuilder& b, const FaceGeometry& g, const SegmentGrid& grid, const SchemeMesh& sm,
+                     PartFace& pf, std::vector<Vec2>& points, std::vector<uint32_t>& vertex) {
+  const Tessellation& m = sm.mesh;
+  const Vec2 scale(g.su, g.sv);
+  std::vector<double> spacing(m.positions.size(), std::numeric_limits<double>::max());
+  for (size_t t = 0; t < m.triangles.size(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = m.triangles[t][k], c = m.triangles[t][(k + 1) % 3];
+      const double len = glm::length((sm.vertex_uv[a] - sm.vertex_uv[c]) * scale);
+      spacing[a] = std::min(spacing[a], len);
+      spacing[c] = std::min(spacing[c], len);
+    }
+  }
+  Vec2 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  for (size_t k = 0; k < points.size(); ++k) lo = glm::min(lo, points[k] / scale), hi = glm::max(hi, points[k] / scale);
+  const auto copies = [](double lo_loop, double hi_loop, double lo, double hi, double period) {
+    if (period <= 0.0) return std::pair<int, int>(0, 0);
+    return std::pair<int, int>(static_cast<int>(std::floor((lo_loop - lo) / period)),
+                               static_cast<int>(std::ceil((hi_loop - hi) / period)));
+  };
+  const auto [ku0, ku1] = copies(lo.x, hi.x, g.report.u_breaks.front(), g.report.u_breaks.back(), g.u_period);
+  const auto [kv0, kv1] = copies(lo.y, hi.y, g.report.v_breaks.front(), g.report.v_breaks.back(), g.v_period);
+  std::set<std::pair<int64_t, int64_t>> seen;
+  const Vec2 extent = glm::max(hi - lo, Vec2(1e-300));
+  for (uint32_t v = 0; v < m.positions.size(); ++v) {
+    if (sm.mesh_vertex[v] != std::numeric_limits<uint32_t>::max() || spacing[v] == std::numeric_limits<double>::max())
+      continue;
+    for (int ku = std::min(ku0, 0); ku <= std::max(ku1, 0); ++ku) {
+      for (int kv = std::min(kv0, 0); kv <= std::max(kv1, 0); ++kv) {
+        const Vec2 UV = sm.vertex_uv[v] + Vec2(ku * g.u_period, kv * g.v_period);
+        const Vec2 q = UV * scale;
+        const double margin = spacing[v] / 3.0;
+        if (!grid.inside(q) || grid.any_near(q - Vec2(margin), q + Vec2(margin))) continue;
+        const Vec2 key = (UV - lo) / extent * 1e9;
+        if (!seen.insert({std::llround(key.x), std::llround(key.y)}).second) continue;
+        const uint32_t id = b.add_vertex(m.positions[v]);
+        const Vec2 w = wrap_uv(g, UV).first;
+        const auto [patch, st] = locate_patch(g, w.x, w.y);
+        b.out.mesh.surface_points[id] = {static_cast<uint32_t>(pf.first_patch + patch), st.x, st.y};
+        b.surface_point_set[id] = true;
+        points.push_back(q);
+        vertex.push_back(id);
+      }
+    }
+  }
 }
 
 // Tessellates one face into the part; false (pf.reason set) when it cannot.
@@ -728,6 +780,7 @@ bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
     std::sort(key.begin(), key.end());
     kept_keys.insert(key);
   }
+  add_free_points(b, g, grid, sm, pf, points, vertex);
   const detail::CdtResult cdt = detail::constrained_delaunay(points, constraints, segments.size());
   if (const char* dbg = std::getenv("SAGITTA_DEBUG_FACE"); dbg && std::atoi(dbg) == g.report.face_index + 1) {
     for (size_t k = 0; k < loop.size(); ++k) std::fprintf(stderr, "P%zu %.9g %.9g v%u\n", k, loop[k].q.x, loop[k].q.y, loop[k].vertex);
