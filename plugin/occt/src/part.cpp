@@ -364,6 +364,10 @@ struct PartBuilder {
   // Per mesh vertex: how far apart two loop points of it may lie in a face's scaled (U, V) and still
   // be the same point (10 x the B-rep vertex's tolerance; edge samples: 1e-9 of the part's size).
   std::vector<double> vertex_tolerance;
+  // Per edge: how many times its samples are doubled (edges whose chords crossed in a face), and
+  // the edges found crossing in this pass.
+  std::vector<int> refine;
+  std::set<int> crossing;
 
   uint32_t add_vertex(const Vec3& p) {
     out.mesh.positions.push_back(p);
@@ -405,6 +409,7 @@ void sample_edge(PartBuilder& b, int e) {
     if (turn > 1e-3) n = std::max(n, 2);
   }
   if (closed) n = std::max(n, 3);
+  n <<= std::min(b.refine[e], 8);
   n = std::min(n, 1 << 16);
   for (int k = 0; k <= n; ++k) s.t.push_back(k == n ? last : first + (last - first) * k / n);
   double tol = b.options.edge_tolerance;
@@ -507,13 +512,14 @@ class SegmentGrid {
 // in one piece, and a seam's two copies land on the two sides of the domain. Returns false (with
 // a reason) when an edge has no p-curve on the face.
 bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& points,
-                std::vector<std::array<uint32_t, 2>>& segments, PartFace& pf) {
+                std::vector<std::array<uint32_t, 2>>& segments, std::vector<int>& segment_edge, PartFace& pf) {
   // A degenerated edge (pole, apex) is one mesh vertex but a segment in (U, V). Were its samples
   // kept apart, the CDT could join one point to two of them, and the two triangles would fold onto
   // the same edge in space; so every loop point at that vertex moves to one point, the segment's
   // middle, and the segment itself is left out (the triangles there fan around the pole).
   std::map<uint32_t, Vec2> pole;
   std::vector<std::pair<uint32_t, uint32_t>> ranges;  // per edge: [first, last) in points
+  std::vector<int> range_edge;
   std::set<std::pair<int, int>> done;                 // (edge, orientation) already walked
   bool missing_pcurve = false;
   const auto walk = [&](const TopoDS_Edge& edge, bool first_in_wire, Vec2& previous_end) {
@@ -567,6 +573,7 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
       }
     }
     ranges.push_back({start, static_cast<uint32_t>(points.size())});
+    range_edge.push_back(e);
   };
   for (TopExp_Explorer w(g.face, TopAbs_WIRE); w.More(); w.Next()) {
     Vec2 previous_end(0.0);
@@ -605,9 +612,12 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
     }
     if (!merged) seen.push_back(p.q);
   }
-  for (const auto& [start, end] : ranges) {
-    for (uint32_t k = start + 1; k < end; ++k) {
-      if (points[k].q != points[k - 1].q) segments.push_back({k - 1, k});
+  for (size_t r = 0; r < ranges.size(); ++r) {
+    for (uint32_t k = ranges[r].first + 1; k < ranges[r].second; ++k) {
+      if (points[k].q != points[k - 1].q) {
+        segments.push_back({k - 1, k});
+        segment_edge.push_back(range_edge[r]);
+      }
     }
   }
   pf.boundary_vertices = points.size();
@@ -738,7 +748,8 @@ void add_free_points(PartBuilder& b, const FaceGeometry& g, const SegmentGrid& g
 bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
   std::vector<LoopPoint> loop;
   std::vector<std::array<uint32_t, 2>> segments;
-  if (!face_loops(b, g, loop, segments, pf)) return false;
+  std::vector<int> segment_edge;
+  if (!face_loops(b, g, loop, segments, segment_edge, pf)) return false;
   if (segments.size() < 2) {
     pf.reason = "the face's boundary has no extent in its parameters";
     return false;
@@ -788,6 +799,17 @@ bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
     for (size_t c = 0; c < cdt.triangles.size(); ++c) std::fprintf(stderr, "T %u %u %u in %d\n", cdt.triangles[c][0], cdt.triangles[c][1], cdt.triangles[c][2], int(cdt.inside[c]));
   }
   for (size_t k = points.size(); k < cdt.points.size(); ++k) vertex.push_back(b.add_vertex(eval_uv(g, cdt.points[k] / scale)));
+  // A point CGAL made lies where two loop chords cross: the edges of the chords through it are
+  // refined and the part is tessellated again (mesh_shape), since that point would be a T-junction.
+  for (size_t k = points.size(); k < cdt.points.size(); ++k) {
+    const Vec2 q = cdt.points[k];
+    for (size_t c = 0; c < segments.size(); ++c) {
+      const Vec2 a = loop[segments[c][0]].q, d = loop[segments[c][1]].q;
+      const Vec2 ad = d - a;
+      const double t = clamp(glm::dot(q - a, ad) / std::max(glm::dot(ad, ad), 1e-300), 0.0, 1.0);
+      if (glm::length(q - (a + t * ad)) <= 1e-9 * (glm::length(ad) + glm::length(q))) b.crossing.insert(segment_edge[c]);
+    }
+  }
   // The scheme's kept triangles as the scheme made them, then the CDT's faces inside the loops
   // that are not kept triangles.
   for (size_t t = 0; t < m.triangles.size(); ++t) {
@@ -849,33 +871,29 @@ void check_scheme(const PartOptions& options, const std::string& name) {
   }
 }
 
-PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const PartOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  check_scheme(options, name);
-  PartMesh out;
-  out.name = name;
-  out.model.name = name;
-  const ShapeIndex x = index_shape(shape);
-  if (x.faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
-  std::vector<FaceGeometry> geometry;
-  for (int f = 0; f < x.faces.Extent(); ++f) geometry.push_back(face_geometry(x, f, name, options.cad));
-  PartBuilder b{options, x, geometry, out, {}, {}};
+// One pass over the part: vertices, edges, then every face (mesh_shape repeats it with refined
+// edges while chords cross).
+void build_part(PartBuilder& b) {
+  const ShapeIndex& x = b.x;
+  std::vector<FaceGeometry>& geometry = b.geometry;
+  const PartOptions& options = b.options;
+  (void)options;
   for (int v = 1; v <= x.vertices.Extent(); ++v) b.add_vertex(to_vec(BRep_Tool::Pnt(TopoDS::Vertex(x.vertices(v)))));
   b.edges.resize(x.edges.Extent());
   for (int e = 0; e < x.edges.Extent(); ++e) sample_edge(b, e);
   Vec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-  for (const Vec3& p : out.mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
-  const double size = out.mesh.positions.empty() ? 0.0 : glm::length(hi - lo);
+  for (const Vec3& p : b.out.mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  const double size = b.out.mesh.positions.empty() ? 0.0 : glm::length(hi - lo);
   for (double& tol : b.vertex_tolerance) tol = 1e-9 * size;
   for (int v = 1; v <= x.vertices.Extent(); ++v)
     b.vertex_tolerance[v - 1] = std::max(1e-9 * size, 10.0 * BRep_Tool::Tolerance(TopoDS::Vertex(x.vertices(v))));
-  out.edges = x.edges.Extent();
-  out.edge_vertices = out.mesh.positions.size();
+  b.out.edges = x.edges.Extent();
+  b.out.edge_vertices = b.out.mesh.positions.size();
   for (const EdgeSamples& s : b.edges) {
     if (!s.free) continue;
-    for (size_t k = 0; k + 1 < s.vertex.size(); ++k) out.boundary_edges.push_back({s.vertex[k], s.vertex[k + 1]});
+    for (size_t k = 0; k + 1 < s.vertex.size(); ++k) b.out.boundary_edges.push_back({s.vertex[k], s.vertex[k + 1]});
   }
-  out.solids = solid_facts(x);
+  b.out.solids = solid_facts(x);
   for (FaceGeometry& g : geometry) {
     PartFace pf;
     pf.face_index = g.report.face_index;
@@ -887,9 +905,9 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
     if (g.patches.empty()) {
       pf.reason = g.report.reason;
     } else {
-      pf.first_patch = static_cast<int>(out.model.patches.size());
+      pf.first_patch = static_cast<int>(b.out.model.patches.size());
       pf.patch_count = static_cast<int>(g.patches.size());
-      out.model.patches.insert(out.model.patches.end(), g.patches.begin(), g.patches.end());
+      b.out.model.patches.insert(b.out.model.patches.end(), g.patches.begin(), g.patches.end());
       try {
         if (mesh_face(b, g, pf)) pf.status = "tessellated";
       } catch (const Standard_Failure& e) {
@@ -897,14 +915,36 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
       }
     }
     if (pf.status == "skipped" && pf.reason.empty()) pf.reason = "no triangles";
-    out.faces_tessellated += pf.status == "tessellated";
-    out.faces_skipped += pf.status == "skipped";
-    out.faces_trimmed += pf.trimmed;
+    b.out.faces_tessellated += pf.status == "tessellated";
+    b.out.faces_skipped += pf.status == "skipped";
+    b.out.faces_trimmed += pf.trimmed;
     if (pf.solid >= 0) {
-      ++out.solids[pf.solid].faces;
-      out.solids[pf.solid].triangles += pf.triangles;
+      ++b.out.solids[pf.solid].faces;
+      b.out.solids[pf.solid].triangles += pf.triangles;
     }
-    out.faces.push_back(pf);
+    b.out.faces.push_back(pf);
+  }
+}
+
+PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const PartOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  check_scheme(options, name);
+  PartMesh out;
+  out.name = name;
+  out.model.name = name;
+  const ShapeIndex x = index_shape(shape);
+  if (x.faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
+  std::vector<FaceGeometry> geometry;
+  for (int f = 0; f < x.faces.Extent(); ++f) geometry.push_back(face_geometry(x, f, name, options.cad));
+  std::vector<int> refine(x.edges.Extent(), 0);
+  for (int pass = 0;; ++pass) {
+    out = PartMesh();
+    out.name = name;
+    out.model.name = name;
+    PartBuilder b{options, x, geometry, out, {}, {}, {}, refine, {}};
+    build_part(b);
+    if (b.crossing.empty() || pass == 6) break;
+    for (int e : b.crossing) ++refine[e];
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
