@@ -364,10 +364,10 @@ struct PartBuilder {
   // Per mesh vertex: how far apart two loop points of it may lie in a face's scaled (U, V) and still
   // be the same point (10 x the B-rep vertex's tolerance; edge samples: 1e-9 of the part's size).
   std::vector<double> vertex_tolerance;
-  // Per edge: how many times its samples are doubled (edges whose chords crossed in a face), and
-  // the edges found crossing in this pass.
-  std::vector<int> refine;
-  std::set<int> crossing;
+  // Per edge: parameters added to its samples (chords that crossed another loop's chord in a face),
+  // and those found in this pass.
+  const std::vector<std::vector<double>>& extra;
+  std::map<int, std::vector<double>> crossing;
 
   uint32_t add_vertex(const Vec3& p) {
     out.mesh.positions.push_back(p);
@@ -409,13 +409,17 @@ void sample_edge(PartBuilder& b, int e) {
     if (turn > 1e-3) n = std::max(n, 2);
   }
   if (closed) n = std::max(n, 3);
-  n <<= std::min(b.refine[e], 8);
   n = std::min(n, 1 << 16);
   for (int k = 0; k <= n; ++k) s.t.push_back(k == n ? last : first + (last - first) * k / n);
   double tol = b.options.edge_tolerance;
   if (b.options.scheme.scheme == Scheme::kEsc && b.options.scheme.threshold > 0.0)
     tol = tol > 0.0 ? std::min(tol, b.options.scheme.threshold) : b.options.scheme.threshold;
   if (curve && tol > 0.0) refine_to_tolerance(*curve, s.t, tol, size_t(1) << 16);
+  if (!b.extra[e].empty()) {
+    s.t.insert(s.t.end(), b.extra[e].begin(), b.extra[e].end());
+    std::sort(s.t.begin(), s.t.end());
+    s.t.erase(std::unique(s.t.begin(), s.t.end()), s.t.end());
+  }
   const auto vertex_id = [&](const TopoDS_Vertex& v) { return static_cast<uint32_t>(b.x.vertices.FindIndex(v) - 1); };
   for (size_t k = 0; k < s.t.size(); ++k) {
     if (s.degenerated) {
@@ -436,6 +440,7 @@ void sample_edge(PartBuilder& b, int e) {
 struct LoopPoint {
   Vec2 q;           // (U su, V sv)
   uint32_t vertex;  // mesh vertex
+  double t = 0.0;   // the edge's parameter
 };
 
 // Boundary segments in a bucket grid over the face's plane, for "is anything near this box" and
@@ -562,7 +567,7 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
     const uint32_t start = static_cast<uint32_t>(points.size());
     for (size_t k = 0; k < s.t.size(); ++k) {
       const Vec2 UV = uv_at(s.t[k]);
-      points.push_back({Vec2(UV.x * g.su, UV.y * g.sv), s.vertex[k]});
+      points.push_back({Vec2(UV.x * g.su, UV.y * g.sv), s.vertex[k], s.t[k]});
       const double offset = glm::length(b.out.mesh.positions[s.vertex[k]] - eval_uv(g, UV));
       pf.max_boundary_offset = std::max(pf.max_boundary_offset, offset);
       if (!b.surface_point_set[s.vertex[k]]) {
@@ -792,22 +797,59 @@ bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
     kept_keys.insert(key);
   }
   add_free_points(b, g, grid, sm, pf, points, vertex);
-  const detail::CdtResult cdt = detail::constrained_delaunay(points, constraints, segments.size());
+  // An "ear": a CDT triangle whose three corners are samples of one edge. Both faces of a tangent
+  // edge (a fillet meeting a plane) may make the same ear, and their triangles would then coincide;
+  // a point at the ear's centre (on the surface) splits it, and the CDT is made again.
+  detail::CdtResult cdt;
+  for (int round = 0;; ++round) {
+    cdt = detail::constrained_delaunay(points, constraints, segments.size());
+    if (round == 4) break;
+    std::vector<std::vector<int>> point_edges(cdt.points.size());
+    for (size_t c = 0; c < segments.size(); ++c) {
+      for (uint32_t end : segments[c]) point_edges[cdt.merged[end]].push_back(segment_edge[c]);
+    }
+    const auto has = [&](uint32_t p, int e) {
+      return std::find(point_edges[p].begin(), point_edges[p].end(), e) != point_edges[p].end();
+    };
+    const size_t before = points.size();
+    for (size_t c = 0; c < cdt.triangles.size(); ++c) {
+      if (!cdt.inside[c]) continue;
+      const auto& t = cdt.triangles[c];
+      for (int e : point_edges[t[0]]) {
+        if (!has(t[1], e) || !has(t[2], e)) continue;
+        const Vec2 centre = (cdt.points[t[0]] + cdt.points[t[1]] + cdt.points[t[2]]) / 3.0;
+        points.push_back(centre);
+        vertex.push_back(b.add_vertex(eval_uv(g, centre / scale)));
+        break;
+      }
+    }
+    if (points.size() == before) break;
+  }
   if (const char* dbg = std::getenv("SAGITTA_DEBUG_FACE"); dbg && std::atoi(dbg) == g.report.face_index + 1) {
     for (size_t k = 0; k < loop.size(); ++k) std::fprintf(stderr, "P%zu %.9g %.9g v%u\n", k, loop[k].q.x, loop[k].q.y, loop[k].vertex);
     for (const auto& sgm : segments) std::fprintf(stderr, "S %u %u\n", sgm[0], sgm[1]);
     for (size_t c = 0; c < cdt.triangles.size(); ++c) std::fprintf(stderr, "T %u %u %u in %d\n", cdt.triangles[c][0], cdt.triangles[c][1], cdt.triangles[c][2], int(cdt.inside[c]));
   }
   for (size_t k = points.size(); k < cdt.points.size(); ++k) vertex.push_back(b.add_vertex(eval_uv(g, cdt.points[k] / scale)));
-  // A point CGAL made lies where two loop chords cross: the edges of the chords through it are
-  // refined and the part is tessellated again (mesh_shape), since that point would be a T-junction.
+  // A point CGAL made lies where two loop chords cross; it would be a T-junction. The longest chord
+  // through it is split at its middle and the part is tessellated again (mesh_shape). Near a vertex
+  // where two curves are tangent (concentric-like arcs) the outer curve's first chord must become
+  // shorter than the inner's, so only one of the two is split each time.
   for (size_t k = points.size(); k < cdt.points.size(); ++k) {
     const Vec2 q = cdt.points[k];
+    double longest = -1.0;
+    size_t split = 0;
     for (size_t c = 0; c < segments.size(); ++c) {
       const Vec2 a = loop[segments[c][0]].q, d = loop[segments[c][1]].q;
       const Vec2 ad = d - a;
       const double t = clamp(glm::dot(q - a, ad) / std::max(glm::dot(ad, ad), 1e-300), 0.0, 1.0);
-      if (glm::length(q - (a + t * ad)) <= 1e-9 * (glm::length(ad) + glm::length(q))) b.crossing.insert(segment_edge[c]);
+      if (glm::length(q - (a + t * ad)) <= 1e-9 * (glm::length(ad) + glm::length(q)) && glm::length(ad) > longest) {
+        longest = glm::length(ad);
+        split = c;
+      }
+    }
+    if (longest > 0.0) {
+      b.crossing[segment_edge[split]].push_back(0.5 * (loop[segments[split][0]].t + loop[segments[split][1]].t));
     }
   }
   // The scheme's kept triangles as the scheme made them, then the CDT's faces inside the loops
@@ -936,15 +978,15 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
   if (x.faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
   std::vector<FaceGeometry> geometry;
   for (int f = 0; f < x.faces.Extent(); ++f) geometry.push_back(face_geometry(x, f, name, options.cad));
-  std::vector<int> refine(x.edges.Extent(), 0);
+  std::vector<std::vector<double>> extra(x.edges.Extent());
   for (int pass = 0;; ++pass) {
     out = PartMesh();
     out.name = name;
     out.model.name = name;
-    PartBuilder b{options, x, geometry, out, {}, {}, {}, refine, {}};
+    PartBuilder b{options, x, geometry, out, {}, {}, {}, extra, {}};
     build_part(b);
-    if (b.crossing.empty() || pass == 6) break;
-    for (int e : b.crossing) ++refine[e];
+    if (b.crossing.empty() || pass == 12) break;
+    for (const auto& [e, ts] : b.crossing) extra[e].insert(extra[e].end(), ts.begin(), ts.end());
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
