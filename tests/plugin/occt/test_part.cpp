@@ -60,7 +60,7 @@ Tessellation solid_mesh(const PartMesh& part, int32_t solid) {
 TEST(Part, ProbeSharedFiles) {
   for (const std::string& file : shared_cad_files()) {
     PartOptions options;
-    options.scheme.level = 2;
+    options.scheme.level = std::getenv("SAGITTA_PART_LEVEL") ? std::atoi(std::getenv("SAGITTA_PART_LEVEL")) : 2;
     const PartMesh part = mesh_part_file(file, options);
     std::printf("%s: faces %zu tessellated %d skipped %d triangles %zu edges %d %.2fs\n",
                 std::filesystem::path(file).filename().c_str(), part.faces.size(), part.faces_tessellated,
