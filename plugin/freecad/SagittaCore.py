@@ -8,6 +8,7 @@ This module never imports SagittaGui (the GUI imports it, not the reverse): the 
 feature that make_tessellation returns its view provider."""
 import os
 import tempfile
+import time
 
 import FreeCAD
 import Mesh
@@ -77,6 +78,70 @@ def shape_model(links, name="selection"):
     return cad["model"], notes
 
 
+def is_part_source(links):
+    """True when a linked shape has solids or shells: the source is a part (a PartDesign Body, a
+    solid, an imported STEP assembly, or faces of one), meshed whole and watertight across faces by
+    mesh_part_brep. Loose faces (Bézier patches, a compound of faces) keep the patch-model path."""
+    return any(getattr(obj, "Shape", None) is not None and not obj.Shape.isNull()
+               and (obj.Shape.Solids or obj.Shape.Shells) for obj, _ in links)
+
+
+def part_brep_text(links):
+    """BREP text of the linked shapes as one compound: a whole shape, or only its selected faces.
+    Faces are taken from one copy of their shape, so that faces sharing an edge still share it (the
+    mesh stays closed across them) and the document's shape is never touched."""
+    shapes = []
+    for obj, subs in links:
+        shape = getattr(obj, "Shape", None)
+        if shape is None or shape.isNull() or not shape.Faces:
+            raise SagittaError("%s has no faces to tessellate" % obj.Label)
+        names = [s for s in subs if s.startswith("Face")] if subs else []
+        if names:
+            copy = shape.copy()
+            shapes.append(Part.makeCompound([copy.getElement(n) for n in names]))
+        else:
+            shapes.append(shape)
+    if len(shapes) == 1:
+        return shapes[0].exportBrepToString()
+    return Part.makeCompound([s.copy() for s in shapes]).exportBrepToString()
+
+
+def part_parameters(params):
+    """The keyword arguments of _sagitta.mesh_part_brep for a feature's scheme parameters."""
+    if params["scheme"] == "pn":
+        raise SagittaError("pn is a scheme for triangle meshes; tessellate a part with uniform or esc")
+    return {k: v for k, v in params.items() if k in ("scheme", "level", "segments", "threshold")}
+
+
+def mesh_part(links, name, params):
+    """The whole-part mesh of the linked shapes (a _sagitta.PartMesh); library errors become
+    SagittaError. A face that cannot be meshed is listed in the result's faces, never dropped."""
+    text = part_brep_text(links)
+    try:
+        return _sagitta.mesh_part_brep(text, name, **part_parameters(params))
+    except ValueError as error:
+        raise SagittaError(str(error))
+
+
+def part_face_notes(part):
+    """One line per B-rep face: what became of it."""
+    notes = []
+    for f in part.faces:
+        kind = f["surface_type"] + (", trimmed" if f["trimmed"] else "")
+        if f["status"] == "tessellated":
+            notes.append("%s (%s): tessellated, %d triangles" % (f["name"], kind, f["triangles"]))
+        else:
+            notes.append("%s (%s): skipped (%s)" % (f["name"], kind, f["reason"]))
+    return notes
+
+
+def part_summary(part):
+    closed = sum(1 for s in part.solids if s["closed"])
+    return "%d faces (%d trimmed): %d tessellated, %d skipped; %d solids (%d closed); %d B-rep edges" % (
+        len(part.faces), part.faces_trimmed, part.faces_tessellated, part.faces_skipped, len(part.solids), closed,
+        part.edges)
+
+
 def model_to_bpt(model):
     """.bpt text of a model, every coordinate at full double precision (repr): the patches Sagitta
     sees in a FreeCAD shape, for reproducing a result with the `sagitta` command."""
@@ -105,7 +170,12 @@ STAT_PROPERTIES = [
     ("App::PropertyFloat", "ErrorLower", "Certified lower bound of the Hausdorff distance (after Validate)"),
     ("App::PropertyFloat", "ErrorUpper", "Certified upper bound of the Hausdorff distance (after Validate)"),
     ("App::PropertyString", "TopologyVerdict", "Watertightness verdict (after Validate)"),
-    ("App::PropertyColorList", "FaceColors", "Per-triangle error colours (after Validate)"),
+    ("App::PropertyColorList", "FaceColors",
+     "Per-triangle colours: the certified error (after Validate); a whole part's B-rep faces"),
+    ("App::PropertyBool", "WholePart", "The source is a part (solids or shells): meshed whole, watertight across faces"),
+    ("App::PropertyString", "PartSummary", "Whole part: faces, trimmed faces, solids"),
+    ("App::PropertyIntegerList", "TriangleFace", "Whole part: per triangle, the index of its B-rep face (0-based)"),
+    ("App::PropertyString", "Certification", "Whether the error interval is certified (after Validate)"),
 ]
 
 
@@ -137,25 +207,51 @@ class TessellationFeature:
             add(kind, name, "Statistics", doc)
             obj.setEditorMode(name, 1)  # read-only in the property editor
         obj.setEditorMode("FaceColors", 2)  # hidden: shown as colours
+        obj.setEditorMode("TriangleFace", 2)  # hidden: one entry per triangle (also the mesh's segments)
 
     def onDocumentRestored(self, obj):
         self.setup(obj)
+        # FreeCAD does not save mesh segments: a whole part's per-face segments come back from TriangleFace.
+        if obj.WholePart and obj.Mesh.countSegments() == 0 and len(obj.TriangleFace) == obj.Mesh.CountFacets > 0:
+            mesh = obj.Mesh.copy()
+            add_face_segments(mesh, obj.TriangleFace)
+            obj.Mesh = mesh
 
     def execute(self, obj):
-        """Rebuilds the mesh from the source; clears validation results (they belong to the old mesh)."""
-        model, notes = shape_model(obj.Source, obj.Label)
-        mesh, stats = tessellate_model(model, scheme_parameters(obj))
-        obj.Mesh = to_freecad_mesh(mesh)
-        obj.Patches = stats["patches"]
-        obj.Triangles = stats["triangles"]
-        obj.Vertices = stats["vertices"]
-        obj.DegenerateTriangles = stats["degenerate_triangles"]
-        obj.TessellationSeconds = stats["seconds"]
-        obj.SourceFaces = notes
+        """Rebuilds the mesh from the source; clears validation results (they belong to the old mesh).
+        A part source (solids or shells) is meshed whole (mesh_part_brep): one mesh segment and one
+        TriangleFace entry per B-rep face; other sources go through the patch model."""
+        if is_part_source(obj.Source):
+            part = mesh_part(obj.Source, obj.Label, scheme_parameters(obj))
+            obj.Mesh = to_freecad_mesh(part.mesh, part.triangle_face)
+            obj.Patches = part.model.patch_count
+            obj.Triangles = part.mesh.triangle_count
+            obj.Vertices = part.mesh.vertex_count
+            obj.DegenerateTriangles = part.mesh.degenerate_triangles
+            obj.TessellationSeconds = part.seconds
+            obj.SourceFaces = part_face_notes(part)
+            obj.WholePart = True
+            obj.PartSummary = part_summary(part)
+            obj.TriangleFace = part.triangle_face.tolist()
+            obj.FaceColors = face_colours(obj.TriangleFace)
+        else:
+            model, notes = shape_model(obj.Source, obj.Label)
+            mesh, stats = tessellate_model(model, scheme_parameters(obj))
+            obj.Mesh = to_freecad_mesh(mesh)
+            obj.Patches = stats["patches"]
+            obj.Triangles = stats["triangles"]
+            obj.Vertices = stats["vertices"]
+            obj.DegenerateTriangles = stats["degenerate_triangles"]
+            obj.TessellationSeconds = stats["seconds"]
+            obj.SourceFaces = notes
+            obj.WholePart = False
+            obj.PartSummary = ""
+            obj.TriangleFace = []
+            obj.FaceColors = []
         obj.ErrorLower = 0.0
         obj.ErrorUpper = 0.0
         obj.TopologyVerdict = ""
-        obj.FaceColors = []
+        obj.Certification = ""
 
     def __getstate__(self):
         return None
@@ -184,12 +280,40 @@ def tessellate_model(model, params):
         raise SagittaError(str(error))
 
 
-def to_freecad_mesh(mesh):
-    """A Mesh.Mesh with the same vertices and triangles, in the same order."""
+def face_colours(triangle_face):
+    """Per triangle, the colour of its face: hues a golden-ratio step apart, so that neighbouring
+    faces differ (shows a whole part's per-face groups)."""
+    import colorsys
+    palette = {}
+    for face in triangle_face:
+        if face not in palette:
+            palette[face] = colorsys.hsv_to_rgb((face * 0.618033988749895) % 1.0, 0.45, 0.95)
+    return [palette[face] for face in triangle_face]
+
+
+def to_freecad_mesh(mesh, triangle_face=None):
+    """A Mesh.Mesh with the same vertices and triangles, in the same order; with `triangle_face`
+    (per triangle, its face index), one mesh segment per face, in face order (segment k holds the
+    triangles of the k-th face that has any)."""
     vectors = [FreeCAD.Vector(*p) for p in mesh.positions.tolist()]
     result = Mesh.Mesh()
     result.addFacets((vectors, [tuple(t) for t in mesh.triangles.tolist()]))
+    if triangle_face is not None and len(triangle_face):
+        if result.CountFacets != len(triangle_face):
+            raise SagittaError("FreeCAD's mesh has %d facets, the tessellation %d triangles"
+                               % (result.CountFacets, len(triangle_face)))
+        add_face_segments(result, triangle_face.tolist())
     return result
+
+
+def add_face_segments(mesh, triangle_face):
+    """Adds one segment per face to a Mesh.Mesh: segment k holds the facets of the k-th face (in
+    face order) that has any."""
+    groups = {}
+    for t, face in enumerate(triangle_face):
+        groups.setdefault(face, []).append(t)
+    for face in sorted(groups):
+        mesh.addSegment(groups[face])
 
 
 def is_tessellation(obj):
@@ -216,8 +340,13 @@ def make_tessellation(doc, links, scheme=None, level=None, threshold=None, base_
     The feature has FreeCAD's default mesh view; SagittaGui.attach_view_provider adds the workbench's."""
     if not links:
         raise SagittaError("Select Part objects or faces to tessellate")
-    shape_model(links)  # refuse unsupported selections before anything is added
     prefs = preferences()
+    # Refuse unsupported selections before anything is added.
+    if is_part_source(links):
+        part_parameters({"scheme": scheme or prefs["scheme"]})
+        part_brep_text(links)
+    else:
+        shape_model(links)
 
     def work():
         obj = doc.addObject("Mesh::FeaturePython", "Tessellation")
@@ -274,6 +403,8 @@ def validate_tessellation(obj, max_depth=None):
     the feature in one transaction. Returns the report (the fields of `sagitta validate --json`)."""
     if not is_tessellation(obj):
         raise SagittaError("%s is not a Sagitta tessellation" % obj.Label)
+    if obj.WholePart:
+        return validate_part(obj)
     depth = preferences()["max_depth"] if max_depth is None else max_depth
     model, _ = shape_model(obj.Source, obj.Label)
     mesh, _ = tessellate_model(model, scheme_parameters(obj))
@@ -285,12 +416,86 @@ def validate_tessellation(obj, max_depth=None):
         obj.ErrorLower = report["hausdorff"]["lower"]
         obj.ErrorUpper = report["hausdorff"]["upper"] or 0.0
         obj.TopologyVerdict = verdict_text(report)
+        obj.Certification = "certified" if report["certified"] else "not certified"
         obj.FaceColors = error_colours(errors.tolist(), report["colour_scale_top"])
         obj.purgeTouched()
     _transaction(obj.Document, "Sagitta validate", work)
     if FreeCAD.GuiUp:
         obj.ViewObject.Coloring = True
     return report
+
+
+# Why a whole part's distance is not certified yet: the certified validator works on whole Bézier
+# patches, not on faces cut by trimming loops (issue 15, "Certified whole parts").
+PART_NOT_CERTIFIED = "not certified (trimmed faces: issue 15)"
+PART_NOT_CERTIFIED_UNTRIMMED = "not certified (whole parts: issue 15)"
+
+
+def validate_part(obj):
+    """Watertightness of a whole-part feature, per solid (the library's check_solids on the part
+    re-meshed exactly as execute did: the mesher is deterministic). Stores the verdict on the feature
+    in one transaction and returns the report: {"kind": "part", "label", "triangles", "vertices",
+    "faces", "faces_trimmed", "faces_skipped", "distance" (why no certified interval), "seconds",
+    "solids": [check_solids' dict plus "brep_closed", "brep_valid", "brep_volume" (-1: faces outside
+    every solid)]}. No distance is claimed: the error interval is cleared (the colours stay the faces')."""
+    part = mesh_part(obj.Source, obj.Label, scheme_parameters(obj))
+    start = time.perf_counter()
+    try:
+        checks = _sagitta.check_solids(part.mesh, part.triangle_solid, part.boundary_edges)
+    except ValueError as error:
+        raise SagittaError(str(error))
+    facts = {s["index"]: s for s in part.solids}
+    for check in checks:
+        solid = facts.get(check["solid"])
+        check["brep_closed"] = bool(solid and solid["closed"])
+        check["brep_valid"] = bool(solid and solid["valid"])
+        check["brep_volume"] = solid["volume"] if solid else 0.0
+    report = {"kind": "part", "label": obj.Label, "triangles": part.mesh.triangle_count,
+              "vertices": part.mesh.vertex_count, "faces": len(part.faces), "faces_trimmed": part.faces_trimmed,
+              "faces_skipped": part.faces_skipped, "solids": checks,
+              "distance": PART_NOT_CERTIFIED if part.faces_trimmed else PART_NOT_CERTIFIED_UNTRIMMED,
+              "seconds": time.perf_counter() - start}
+
+    def work():
+        obj.ErrorLower = 0.0
+        obj.ErrorUpper = 0.0
+        obj.TopologyVerdict = part_verdict_text(report)
+        obj.Certification = report["distance"]
+        obj.purgeTouched()
+    _transaction(obj.Document, "Sagitta validate", work)
+    return report
+
+
+def solid_name(check):
+    return "faces outside solids" if check["solid"] < 0 else "solid %d" % (check["solid"] + 1)
+
+
+def solid_verdict(check):
+    """One solid's watertightness in words."""
+    if check["closed"] and not check["t_junctions"]:
+        return "closed"
+    parts = []
+    if check["crack_edges"]:
+        parts.append("%d cracks" % check["crack_edges"])
+    if check["model_boundary_edges"]:
+        parts.append("%d model boundary edges" % check["model_boundary_edges"])
+    for key, name in (("t_junctions", "T-junctions"), ("non_manifold_edges", "non-manifold edges"),
+                      ("inconsistent_orientation_edges", "inconsistently oriented edges")):
+        if check[key]:
+            parts.append("%d %s" % (check[key], name))
+    return ", ".join(parts) or "open"
+
+
+def part_verdict_text(report):
+    """Per solid: closed, or what opens it; a B-rep solid that is closed and valid but whose mesh is
+    not closed is called out as not watertight."""
+    lines = []
+    for check in report["solids"]:
+        verdict = solid_verdict(check)
+        if check["brep_closed"] and check["brep_valid"] and verdict != "closed":
+            verdict = "NOT watertight: " + verdict
+        lines.append("%s: %s" % (solid_name(check), verdict))
+    return "; ".join(lines)
 
 
 def run_validation(model, mesh, max_depth, reference_segments=32):
@@ -346,6 +551,9 @@ def write_html_report(report, label, path):
         return "<tr><td>%s</td><td>%.6g</td><td>%s</td><td>%s</td></tr>" % (
             name, interval["lower"], "%.6g" % upper if upper is not None else "not certified",
             "yes" if interval["upper_certified"] else "no")
+    if report.get("kind") == "part":
+        _write_atomically(path, part_html(report, label))
+        return
     t = report["topology"]
     body = [
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>Sagitta validation: %s</title></head><body>" % html.escape(label),
@@ -362,11 +570,37 @@ def write_html_report(report, label, path):
                 "inconsistent_orientation_edges", "degenerate_triangles", "duplicated_faces"):
         body.append("<tr><td>%s</td><td>%d</td></tr>" % (key.replace("_", " "), t[key]))
     body.append("</table></body></html>\n")
+    _write_atomically(path, "\n".join(body))
+
+
+def part_html(report, label):
+    """The HTML page of a whole part's validation: per solid counts; the distance not certified."""
+    import html
+    keys = ("triangles", "open_edges", "model_boundary_edges", "crack_edges", "t_junctions", "non_manifold_edges",
+            "inconsistent_orientation_edges", "euler_characteristic", "signed_volume", "brep_volume")
+    body = [
+        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>Sagitta validation: %s</title></head><body>" % html.escape(label),
+        "<h1>Sagitta validation: %s</h1>" % html.escape(label),
+        "<p>Whole part: %d triangles, %d vertices, %d faces (%d trimmed, %d skipped)</p>" % (
+            report["triangles"], report["vertices"], report["faces"], report["faces_trimmed"], report["faces_skipped"]),
+        "<h2>Distance: %s</h2>" % html.escape(report["distance"]),
+        "<h2>Watertightness per solid</h2><table border='1'><tr><th>solid</th><th>verdict</th>%s</tr>"
+        % "".join("<th>%s</th>" % k.replace("_", " ") for k in keys),
+    ]
+    for check in report["solids"]:
+        body.append("<tr><td>%s</td><td>%s</td>%s</tr>" % (
+            solid_name(check), html.escape(solid_verdict(check)), "".join("<td>%.6g</td>" % check[k] for k in keys)))
+    body.append("</table></body></html>\n")
+    return "\n".join(body)
+
+
+def _write_atomically(path, text):
+    """Writes text to path through a temporary file in the same folder, then renames it."""
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(dir=folder, prefix=".sagitta-report-")
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as out:
-            out.write("\n".join(body))
+            out.write(text)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -384,6 +618,9 @@ def fit_tessellation(obj, target_error):
     fit --json`). Raises SagittaError, changing nothing, when the target cannot be met."""
     if not is_tessellation(obj):
         raise SagittaError("%s is not a Sagitta tessellation" % obj.Label)
+    if obj.WholePart:
+        raise SagittaError("%s is a whole part: its error is %s, so it cannot be fitted to a certified target"
+                           % (obj.Label, PART_NOT_CERTIFIED))
     if not target_error > 0:
         raise SagittaError("The target error must be > 0")
     model, _ = shape_model(obj.Source, obj.Label)

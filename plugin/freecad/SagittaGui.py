@@ -64,6 +64,14 @@ class ViewProviderTessellation:
     def getIcon(self):
         return icon("Sagitta_Tessellate")
 
+    def updateData(self, obj, prop):
+        """FreeCAD's mesh view reads the per-facet colours when Coloring is switched on, not when they
+        change: re-applies them when a recompute gives new ones (a whole part's face colours)."""
+        vobj = getattr(obj, "ViewObject", None)
+        if prop == "FaceColors" and vobj is not None and vobj.Coloring and len(obj.FaceColors) == obj.Mesh.CountFacets:
+            vobj.Coloring = False
+            vobj.Coloring = True
+
     def setEdit(self, vobj, mode=0):
         if mode != 0:
             return None
@@ -86,9 +94,11 @@ class ViewProviderTessellation:
 
 def attach_view_provider(obj):
     """Gives a tessellation feature made by SagittaCore.make_tessellation the workbench's view: icon,
-    double-click editing, two-sided lighting."""
+    double-click editing, two-sided lighting; a whole part coloured by B-rep face."""
     ViewProviderTessellation(obj.ViewObject)
     obj.ViewObject.Lighting = "Two side"  # patch files orient their normals either way
+    if obj.WholePart:
+        obj.ViewObject.Coloring = True
 
 
 # ---------------------------------------------------------------------------------------------
@@ -135,7 +145,8 @@ class TessellatePanel:
 
     def stats_text(self):
         o = self.obj
-        return "%d patches -> %d triangles, %d vertices in %.3f s" % (o.Patches, o.Triangles, o.Vertices, o.TessellationSeconds)
+        text = "%d patches -> %d triangles, %d vertices in %.3f s" % (o.Patches, o.Triangles, o.Vertices, o.TessellationSeconds)
+        return text + ("\nWhole part: " + o.PartSummary if o.WholePart else "")
 
     def accept(self):
         try:
@@ -187,6 +198,33 @@ class ValidatePanel:
         self.label = label
         self.report = report
         self.form, layout = _form("Sagitta validation")
+        if report.get("kind") == "part":
+            self.part_rows(layout, report)
+        else:
+            self.patch_rows(layout, label, report)
+        self.report_button = QtGui.QPushButton("Save HTML report…")
+        self.report_button.clicked.connect(self.save_report)
+        layout.addRow(self.report_button)
+
+    @staticmethod
+    def part_rows(layout, report):
+        """A whole part: watertightness per solid; the distance not certified, and why."""
+        def label(text):
+            widget = QtGui.QLabel(text)
+            widget.setWordWrap(True)
+            return widget
+        layout.addRow(label("<b>%s</b>: whole part, %d triangles, %d faces (%d trimmed, %d skipped)" % (
+            report["label"], report["triangles"], report["faces"], report["faces_trimmed"], report["faces_skipped"])))
+        layout.addRow("Distance", label(report["distance"]))
+        for check in report["solids"]:
+            layout.addRow(SagittaCore.solid_name(check), label(SagittaCore.solid_verdict(check)))
+            layout.addRow("", label("open edges %d (model boundary %d, cracks %d), T-junctions %d, non-manifold %d" % (
+                check["open_edges"], check["model_boundary_edges"], check["crack_edges"], check["t_junctions"],
+                check["non_manifold_edges"])))
+
+    @staticmethod
+    def patch_rows(layout, label, report):
+        """A patch model's tessellation: certified intervals, topology, the colour legend."""
         layout.addRow(QtGui.QLabel("<b>%s</b>: %d triangles, %s, %.3f s" % (
             label, report["triangles"], report["method"], report["seconds"])))
         layout.addRow("Hausdorff", QtGui.QLabel(interval_text(report["hausdorff"])))
@@ -202,9 +240,6 @@ class ValidatePanel:
             layout.addRow(LegendWidget(report.get("colour_scale_top", 0.0)))
         else:
             layout.addRow(QtGui.QLabel("No per-triangle error: this mesh has no (u, v) on the surface."))
-        self.report_button = QtGui.QPushButton("Save HTML report…")
-        self.report_button.clicked.connect(self.save_report)
-        layout.addRow(self.report_button)
 
     def save_report(self, path=None):
         """Writes the HTML report to `path`, or where the user chooses."""
@@ -278,8 +313,9 @@ def _selected_tessellation():
 class TessellateCommand:
     def GetResources(self):
         return {"Pixmap": icon("Sagitta_Tessellate"), "MenuText": "Tessellate",
-                "ToolTip": "Tessellate the selected Part objects or faces (Bézier, B-spline) into a parametric mesh "
-                           "that follows its source; parameters in the task panel"}
+                "ToolTip": "Tessellate the selected Part objects or faces into a parametric mesh that follows its "
+                           "source: a solid or shell (PartDesign Body, STEP part) or faces of one is meshed whole, "
+                           "watertight across faces, one mesh segment per face; parameters in the task panel"}
 
     def IsActive(self):
         return FreeCAD.ActiveDocument is not None

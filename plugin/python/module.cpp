@@ -13,7 +13,9 @@
 #include "sagitta/io/model_io.hpp"
 #include "sagitta/mesh_check.hpp"
 #include "sagitta/occt/cad.hpp"
+#include "sagitta/occt/part.hpp"
 #include "sagitta/scheme.hpp"
+#include "sagitta/solid_check.hpp"
 #include "sagitta/uniform.hpp"
 
 #include <pybind11/numpy.h>
@@ -389,6 +391,200 @@ void bind_cad(py::module_& m) {
       py::arg("path"), "A .step/.iges/.brep file as {model, faces, ...} through the OCCT adapter");
 }
 
+// Per-face reports of a whole part as dicts (PartFace's fields).
+py::list part_faces(const occt::PartMesh& part) {
+  py::list faces;
+  for (const occt::PartFace& f : part.faces) {
+    py::dict d;
+    d["face_index"] = f.face_index;
+    d["name"] = f.name;
+    d["surface_type"] = f.surface_type;
+    d["trimmed"] = f.trimmed;
+    d["solid"] = f.solid;
+    d["status"] = f.status;
+    d["reason"] = f.reason;
+    d["first_patch"] = f.first_patch;
+    d["patch_count"] = f.patch_count;
+    d["triangles"] = f.triangles;
+    d["scheme_triangles"] = f.scheme_triangles;
+    d["boundary_vertices"] = f.boundary_vertices;
+    d["max_boundary_offset"] = f.max_boundary_offset;
+    faces.append(d);
+  }
+  return faces;
+}
+
+// Per-solid facts of a whole part as dicts (PartSolid's fields).
+py::list part_solids(const occt::PartMesh& part) {
+  py::list solids;
+  for (const occt::PartSolid& s : part.solids) {
+    py::dict d;
+    d["index"] = s.index;
+    d["closed"] = s.closed;
+    d["valid"] = s.valid;
+    d["volume"] = s.volume;
+    d["faces"] = s.faces;
+    d["triangles"] = s.triangles;
+    solids.append(d);
+  }
+  return solids;
+}
+
+// A 1-D NumPy array holding a copy of the values.
+template <typename T>
+py::array_t<T> array_of(const std::vector<T>& values) {
+  py::array_t<T> a(static_cast<py::ssize_t>(values.size()));
+  std::copy(values.begin(), values.end(), a.mutable_data());
+  return a;
+}
+
+// The part options from the keyword arguments: `segments` (uniform) replaces `level` when given;
+// esc takes `level` and `threshold`. The schemes check their parameters when the part is meshed.
+occt::PartOptions part_options(const std::string& scheme, int level, std::optional<int> segments,
+                               std::optional<double> threshold, double edge_tolerance) {
+  if (!(edge_tolerance >= 0.0) || !std::isfinite(edge_tolerance)) throw InputError("edge_tolerance must be >= 0");
+  occt::PartOptions options;
+  options.scheme.scheme = parse_scheme(scheme);
+  options.scheme.level = segments ? -1 : level;
+  options.scheme.segments = segments.value_or(-1);
+  options.scheme.threshold = threshold.value_or(0.0);
+  options.edge_tolerance = edge_tolerance;
+  return options;
+}
+
+// One solid's verdict as a dict (SolidCheck's fields; findings as dicts).
+py::dict solid_check_dict(const SolidCheck& c) {
+  py::dict d;
+  d["solid"] = c.solid;
+  d["triangles"] = c.triangles;
+  d["vertices"] = c.vertices;
+  d["edges"] = c.edges;
+  d["open_edges"] = c.open_edges;
+  d["model_boundary_edges"] = c.model_boundary_edges;
+  d["crack_edges"] = c.crack_edges;
+  d["non_manifold_edges"] = c.non_manifold_edges;
+  d["t_junctions"] = c.t_junctions;
+  d["inconsistent_orientation_edges"] = c.inconsistent_orientation_edges;
+  d["degenerate_triangles"] = c.degenerate_triangles;
+  d["components"] = c.components;
+  d["euler_characteristic"] = c.euler_characteristic;
+  d["closed"] = c.closed;
+  d["signed_volume"] = c.signed_volume;
+  d["cgal_checked"] = c.cgal_checked;
+  d["cgal_note"] = c.cgal_note;
+  d["cgal_closed"] = c.cgal_closed;
+  d["cgal_outward"] = c.cgal_outward;
+  d["cgal_self_intersections"] = c.cgal_self_intersections;
+  d["cgal_volume"] = c.cgal_volume;
+  py::list findings;
+  for (const TopologyFinding& f : c.findings) {
+    py::dict fd;
+    fd["kind"] = f.kind;
+    fd["position"] = py::make_tuple(f.position.x, f.position.y, f.position.z);
+    fd["patch"] = f.patch;
+    fd["triangle"] = f.triangle;
+    fd["vertices"] = py::make_tuple(f.vertices[0], f.vertices[1]);
+    findings.append(fd);
+  }
+  d["findings"] = findings;
+  return d;
+}
+
+// Checks every solid of a whole-part mesh (sagitta/solid_check.hpp) from Python arrays.
+py::list check_solids_python(const Tessellation& mesh,
+                             py::array_t<int32_t, py::array::c_style | py::array::forcecast> triangle_solid,
+                             py::array_t<int64_t, py::array::c_style | py::array::forcecast> boundary_edges, bool cgal,
+                             bool self_intersections) {
+  if (triangle_solid.ndim() != 1) throw InputError("triangle_solid must be a 1-D array");
+  const bool no_edges = boundary_edges.size() == 0;
+  if (!no_edges && (boundary_edges.ndim() != 2 || boundary_edges.shape(1) != 2)) {
+    throw InputError("boundary_edges must be a (K, 2) array");
+  }
+  const std::vector<int32_t> solid(triangle_solid.data(), triangle_solid.data() + triangle_solid.size());
+  std::vector<std::array<uint32_t, 2>> edges;
+  const int64_t* e = boundary_edges.data();
+  for (py::ssize_t k = 0; !no_edges && k < boundary_edges.shape(0); ++k) {
+    if (e[2 * k] < 0 || e[2 * k + 1] < 0 || e[2 * k] >= int64_t(mesh.positions.size()) ||
+        e[2 * k + 1] >= int64_t(mesh.positions.size())) {
+      throw InputError("boundary edge " + std::to_string(k) + " refers to a missing vertex");
+    }
+    edges.push_back({static_cast<uint32_t>(e[2 * k]), static_cast<uint32_t>(e[2 * k + 1])});
+  }
+  SolidCheckOptions options;
+  options.cgal = cgal;
+  options.self_intersections = self_intersections;
+  std::vector<SolidCheck> checks;
+  {
+    py::gil_scoped_release release;
+    checks = check_solids(mesh, solid, edges, options);
+  }
+  py::list out;
+  for (const SolidCheck& c : checks) out.append(solid_check_dict(c));
+  return out;
+}
+
+// Whole CAD parts: every face meshed into one watertight indexed mesh, and the per-solid check.
+void bind_part(py::module_& m) {
+  py::class_<occt::PartMesh>(m, "PartMesh",
+                             "A whole part as one indexed mesh: per-triangle face and solid ids, the free B-rep "
+                             "edges' mesh edges, one report per face and per solid")
+      .def_readonly("name", &occt::PartMesh::name)
+      .def_readonly("model", &occt::PartMesh::model, "The tessellated faces' Bézier patches, in face order")
+      .def_readonly("mesh", &occt::PartMesh::mesh)
+      .def_property_readonly("triangle_face", [](const occt::PartMesh& p) { return array_of(p.triangle_face); })
+      .def_property_readonly("triangle_solid", [](const occt::PartMesh& p) { return array_of(p.triangle_solid); })
+      .def_property_readonly(
+          "boundary_edges",
+          [](const occt::PartMesh& p) {
+            py::array_t<uint32_t> a({static_cast<py::ssize_t>(p.boundary_edges.size()), py::ssize_t{2}});
+            auto w = a.mutable_unchecked<2>();
+            for (size_t k = 0; k < p.boundary_edges.size(); ++k) {
+              w(static_cast<py::ssize_t>(k), 0) = p.boundary_edges[k][0];
+              w(static_cast<py::ssize_t>(k), 1) = p.boundary_edges[k][1];
+            }
+            return a;
+          })
+      .def_property_readonly("faces", &part_faces)
+      .def_property_readonly("solids", &part_solids)
+      .def_readonly("faces_tessellated", &occt::PartMesh::faces_tessellated)
+      .def_readonly("faces_skipped", &occt::PartMesh::faces_skipped)
+      .def_readonly("faces_trimmed", &occt::PartMesh::faces_trimmed)
+      .def_readonly("edges", &occt::PartMesh::edges)
+      .def_readonly("edge_vertices", &occt::PartMesh::edge_vertices)
+      .def_readonly("seconds", &occt::PartMesh::seconds)
+      .def("__repr__", [](const occt::PartMesh& p) {
+        return "<sagitta.PartMesh '" + p.name + "': " + std::to_string(p.faces.size()) + " faces, " +
+               std::to_string(p.mesh.triangles.size()) + " triangles>";
+      });
+
+  m.def(
+      "mesh_part",
+      [](const std::string& path, const std::string& scheme, int level, std::optional<int> segments,
+         std::optional<double> threshold, double edge_tolerance) {
+        const occt::PartOptions options = part_options(scheme, level, segments, threshold, edge_tolerance);
+        py::gil_scoped_release release;
+        return occt::mesh_part_file(path, options);
+      },
+      py::arg("path"), py::arg("scheme") = "uniform", py::arg("level") = 2, py::arg("segments") = py::none(),
+      py::arg("threshold") = py::none(), py::arg("edge_tolerance") = 0.0,
+      "Every face of a .step/.iges/.brep file in one mesh, watertight across faces (uniform: level or segments; "
+      "esc: level and threshold)");
+  m.def(
+      "mesh_part_brep",
+      [](const std::string& text, const std::string& name, const std::string& scheme, int level,
+         std::optional<int> segments, std::optional<double> threshold, double edge_tolerance) {
+        const occt::PartOptions options = part_options(scheme, level, segments, threshold, edge_tolerance);
+        py::gil_scoped_release release;
+        return occt::mesh_part_brep_string(text, name, options);
+      },
+      py::arg("brep_text"), py::arg("name"), py::arg("scheme") = "uniform", py::arg("level") = 2,
+      py::arg("segments") = py::none(), py::arg("threshold") = py::none(), py::arg("edge_tolerance") = 0.0,
+      "mesh_part on a shape's BREP text (FreeCAD: shape.exportBrepToString()); `name` names it in messages");
+  m.def("check_solids", &check_solids_python, py::arg("mesh"), py::arg("triangle_solid"), py::arg("boundary_edges"),
+        py::arg("cgal") = true, py::arg("self_intersections") = true,
+        "Per-solid watertightness of a whole-part mesh: one dict per solid id (SolidCheck's fields), sorted by id");
+}
+
 }  // namespace
 
 // Each class is bound before the functions that take or return it, so that their signatures name it.
@@ -401,4 +597,5 @@ PYBIND11_MODULE(_sagitta, m) {
   bind_validate(m);
   bind_fit(m);
   bind_cad(m);
+  bind_part(m);
 }
