@@ -77,6 +77,23 @@ Plan make_plan(const Model& model, const std::vector<Vec3>& points) {
   }
   plan.exponent = rescale_exponent(magnitude);
   if (plan.exponent != 0) plan.identity = false;
+  // The smallest non-zero coordinate, once rescaled, must stay above 2^-200: fourth powers of the
+  // coordinates' differences (squared normals of CGAL's closest-point projections, ~1e-81 against
+  // 1 in a fuzzed mesh) would underflow, and the projections turn into NaN.
+  double smallest = std::numeric_limits<double>::max();
+  const auto visit = [&](const Vec3& p) {
+    for (double c : {p.x, p.y, p.z}) {
+      if (c != 0.0) smallest = std::min(smallest, std::abs(c));
+    }
+  };
+  for (const Vec3& p : points) visit(p);
+  for (const BezierPatch& patch : model.patches) {
+    for (const Vec3& p : patch.points) visit(p);
+  }
+  if (smallest != std::numeric_limits<double>::max() && std::ldexp(smallest, -plan.exponent) < std::ldexp(1.0, -200)) {
+    plan.reason = "the coordinates span too many orders of magnitude (largest " + number(magnitude) +
+                  ", smallest non-zero " + number(smallest) + ") for the certified arithmetic";
+  }
   return plan;
 }
 

@@ -112,6 +112,9 @@ struct Hit {
 // collapsed to a point, after removing duplicates).
 static Hit nearest(const MeshDistance::Impl& m, const Vec3& p) {
   Hit best;
+  // A query beyond double's range (an overflow upstream) has no nearest point: +inf and no
+  // triangle. CGAL's exact fallback would hand the infinite coordinate to GMP, which raises SIGFPE.
+  if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return best;
   const K::Point_3 q(p.x, p.y, p.z);
   if (!m.triangles.empty()) {
     const auto hit = m.tree.closest_point_and_primitive(q);

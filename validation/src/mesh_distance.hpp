@@ -18,7 +18,8 @@ class MeshDistance {
   MeshDistance(const MeshDistance&) = delete;
   MeshDistance& operator=(const MeshDistance&) = delete;
 
-  // Closest point on the mesh and the distance to it, as computed in double by CGAL (Epick).
+  // Closest point on the mesh and the distance to it, as computed in double by CGAL (Epick); +inf
+  // (and closest_triangle -1) for a query point that is not finite.
   // The rounding of this value is bounded by rounding_bound(p).
   double distance(const Vec3& p, Vec3* closest = nullptr) const;
   // A generous bound on |computed distance - true distance| for a query at p.

@@ -386,11 +386,6 @@ void sample_edge(PartBuilder& b, int e) {
   double first = 0.0, last = 0.0;
   BRep_Tool::Range(edge, first, last);
   const std::vector<int> faces = faces_of_edge(b.x, edge);
-  if (std::getenv("SAGITTA_DEBUG_EDGES")) {
-    std::fprintf(stderr, "edge E%d faces:", e);
-    for (int f : faces) std::fprintf(stderr, " %d", f + 1);
-    std::fprintf(stderr, "\n");
-  }
   const int segs = scheme_segments(b.options.scheme);
   int n = 1;
   for (int f : faces) {
@@ -824,11 +819,6 @@ bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
       }
     }
     if (points.size() == before) break;
-  }
-  if (const char* dbg = std::getenv("SAGITTA_DEBUG_FACE"); dbg && std::atoi(dbg) == g.report.face_index + 1) {
-    for (size_t k = 0; k < loop.size(); ++k) std::fprintf(stderr, "P%zu %.9g %.9g v%u\n", k, loop[k].q.x, loop[k].q.y, loop[k].vertex);
-    for (const auto& sgm : segments) std::fprintf(stderr, "S %u %u\n", sgm[0], sgm[1]);
-    for (size_t c = 0; c < cdt.triangles.size(); ++c) std::fprintf(stderr, "T %u %u %u in %d\n", cdt.triangles[c][0], cdt.triangles[c][1], cdt.triangles[c][2], int(cdt.inside[c]));
   }
   for (size_t k = points.size(); k < cdt.points.size(); ++k) vertex.push_back(b.add_vertex(eval_uv(g, cdt.points[k] / scale)));
   // A point CGAL made lies where two loop chords cross; it would be a T-junction. The longest chord
