@@ -21,6 +21,8 @@
 #include <TopoDS.hxx>
 #include <TopoDS_Face.hxx>
 
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
@@ -203,6 +205,33 @@ TEST(Part, FixturesHaveTheirGenusAndVolume) {
     ++parts;
   }
   EXPECT_GE(parts, 9);
+}
+
+// The ESC scheme inside the faces (threshold relative to the part's size): every face tessellated,
+// closed solids closed, every edge chord within the threshold of its curve (sampled at 7 points).
+TEST(Part, EscSchemeGivesClosedSolids) {
+  for (const char* name : {"cad/step/pr1ct.stp", "cad/bottle.brep", "cad/step/trj4_k1_top-pe-203.stp",
+                           "cad/step/bug24595_281390.stp"}) {
+    const std::string file = kData + "/" + name;
+    PartOptions options;
+    options.scheme.scheme = Scheme::kEsc;
+    options.scheme.level = 3;
+    const PartMesh coarse = mesh(file, 2);
+    Vec3 lo(1e300), hi(-1e300);
+    for (const Vec3& p : coarse.mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+    options.scheme.threshold = 1e-3 * glm::length(hi - lo);
+    const PartMesh part = mesh_part_file(file, options);
+    EXPECT_EQ(part.faces_tessellated, static_cast<int>(part.faces.size())) << file;
+    const std::vector<SolidCheck> checks = check_solids(part.mesh, part.triangle_solid, part.boundary_edges);
+    for (const SolidCheck& c : checks) {
+      if (c.solid < 0 || !part.solids[c.solid].closed || !part.solids[c.solid].valid) continue;
+      EXPECT_TRUE(c.closed) << file << " solid " << c.solid;
+      EXPECT_EQ(c.t_junctions, 0u) << file << " solid " << c.solid;
+      EXPECT_GT(c.signed_volume, 0.0) << file;
+    }
+    std::printf("esc %-24s threshold %.3g: %zu triangles (uniform level 2: %zu)\n", name, options.scheme.threshold,
+                part.mesh.triangles.size(), coarse.mesh.triangles.size());
+  }
 }
 
 // An open shell's free edges are the model's boundary, never cracks.
