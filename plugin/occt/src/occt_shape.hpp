@@ -2,6 +2,7 @@
 #pragma once
 
 #include "sagitta/occt/cad.hpp"
+#include "sagitta/occt/part.hpp"
 
 #include <Geom_BSplineSurface.hxx>
 #include <TopoDS_Face.hxx>
@@ -28,5 +29,8 @@ CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name
 // trimmed.cpp and docs/CAD.md say what is certified.
 TrimmedFacePeer measure_trimmed_face(const TopoDS_Face& face, const FaceReport& report,
                                      const std::vector<BezierPatch>& trimmed_patches, const CertifyOptions& certify);
+
+// The whole-part mesher on a shape already read (part.cpp; the benchmark times it without the reader).
+PartMesh mesh_part_shape(const TopoDS_Shape& shape, const std::string& name, const PartOptions& options);
 
 }  // namespace sagitta::occt

@@ -984,6 +984,10 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
 
 }  // namespace
 
+PartMesh mesh_part_shape(const TopoDS_Shape& shape, const std::string& name, const PartOptions& options) {
+  return mesh_shape(shape, name, options);
+}
+
 PartMesh mesh_part_file(const std::string& path, const PartOptions& options) {
   check_scheme(options, path);
   return mesh_shape(read_cad_shape(path), path, options);
