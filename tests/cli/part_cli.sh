@@ -83,6 +83,13 @@ if [[ -f "${SHARED_DATA:-}/cad/shell1.brep" ]]; then
       || fail "shell1 (untrimmed): not certified: $(field "$tmp/c.json" "d['certificate']['faces_not_certified'][:3]")"
     [[ $out == *$'\n'"certified: hausdorff in ["* ]] || fail "shell1: headline '$out'"
   fi
+  c="d['certificate']"
+  [[ $(field "$tmp/c.json" "len($c['face_upper']) == $c['faces_certified'] == d['faces'] - len($c['faces_not_certified'])") == True ]] \
+    || fail "shell1: certified and not certified faces do not add up"
+  if [[ $(field "$tmp/c.json" "$c['faces_certified']") != 0 ]]; then
+    [[ $(field "$tmp/c.json" "max(f['upper'] for f in $c['face_upper']) <= $c['hausdorff']['upper']") == True ]] \
+      || fail "shell1: a face's bound above the Hausdorff bound"
+  fi
 fi
 
 # Malformed and truncated CAD files: exit 2, one line naming the file; an existing --out untouched.

@@ -279,11 +279,14 @@ nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCerti
   nlohmann::json j;
   j["certified"] = c.all_certified;
   j["faces_certified"] = c.faces_certified;
-  nlohmann::json missing = nlohmann::json::array();
+  nlohmann::json missing = nlohmann::json::array(), bounds = nlohmann::json::array();
   for (const FaceCertificate& f : c.faces) {
-    if (!f.certified) missing.push_back({{"face", part.faces[static_cast<size_t>(f.face)].name}, {"reason", f.reason}});
+    const std::string& name = part.faces[static_cast<size_t>(f.face)].name;
+    if (!f.certified) missing.push_back({{"face", name}, {"reason", f.reason}});
+    if (f.certified) bounds.push_back({{"face", name}, {"upper", f.upper}});
   }
   j["faces_not_certified"] = missing;
+  j["face_upper"] = bounds;
   j["certified_triangles"] = c.triangles;
   j["certified_patches"] = c.patches;
   if (c.triangles > 0) {

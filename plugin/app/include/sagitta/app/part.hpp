@@ -81,8 +81,9 @@ inline constexpr const char* kTrimmedNotCertified = "trimmed face: certificate n
 
 PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& options = {});
 
-// certified (all_certified), faces_certified, faces_not_certified [{face, reason}], the sub-mesh's
-// hausdorff / mesh_to_surface / surface_to_mesh intervals, triangles, patches, seconds.
+// certified (all_certified), faces_certified, faces_not_certified [{face, reason}], face_upper
+// [{face, upper}] (each certified face's largest per-triangle bound), the sub-mesh's
+// hausdorff / mesh_to_surface / surface_to_mesh intervals, certified_triangles, certified_patches, seconds.
 nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCertificate& certificate);
 
 // Refuses (InputError, one line naming the file and issue 15) a CAD part given to a command that
