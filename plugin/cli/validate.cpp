@@ -175,7 +175,8 @@ void print_part_validation(const occt::PartMesh& part, const app::PartValidation
     std::cout << " (hausdorff on them in [" << cert.distance.hausdorff.lower << ", " << cert.distance.hausdorff.upper
               << "])";
   }
-  std::cout << "; " << part.faces_trimmed << " trimmed faces (certificate: issue 15); reasons in --json\n";
+  if (part.faces_trimmed > 0) std::cout << "; " << part.faces_trimmed << " trimmed faces (their certificate: issue 15)";
+  std::cout << "; reasons in --json\n";
 }
 
 // A CAD part: the whole-part mesh, its per-solid checks and the certificate where it applies.
