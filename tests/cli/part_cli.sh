@@ -68,6 +68,16 @@ if [[ -n "${FIXTURES:-}" && -f "$FIXTURES/facts.json" ]]; then
   set -e
   [[ $code == 3 ]] || fail "plate: --max-error without a certificate: exit $code"
 
+  # --edge-tolerance t: each hole's circles (r 6 through, r 4 blind; two circles each) need at least
+  # pi / acos(1 - t / r) chords of sagitta <= t, so at least that many edge vertices.
+  "$SAGITTA" tessellate "$plate" --level 1 --edge-tolerance 0.01 --stats "$tmp/e.json" >/dev/null || fail "plate: --edge-tolerance"
+  [[ $(field "$tmp/e.json" "d['edge_vertices'] >= sum(2 * __import__('math').ceil(__import__('math').pi / __import__('math').acos(1 - 0.01 / r)) for r in (6, 4))") == True ]] \
+    || fail "plate: too few edge vertices for --edge-tolerance 0.01: $(field "$tmp/e.json" "d['edge_vertices']")"
+  set +e
+  "$SAGITTA" tessellate "$plate" --level 1 --edge-tolerance -1 >/dev/null 2>&1; code=$?
+  set -e
+  [[ $code == 2 ]] || fail "a negative --edge-tolerance: exit $code"
+
   # The open shell: its rim is model boundary, not a crack.
   shell="$FIXTURES/open_box_shell.brep"
   "$SAGITTA" validate "$shell" --level 2 --require-watertight --json "$tmp/o.json" >/dev/null || fail "open shell: exit $?"

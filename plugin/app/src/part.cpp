@@ -19,6 +19,9 @@ constexpr double kUvTolerance = 1e-12;
 }  // namespace
 
 occt::PartOptions part_options(const SchemeSpec& scheme, double edge_tolerance) {
+  if (!(edge_tolerance >= 0.0) || !std::isfinite(edge_tolerance)) {
+    throw InputError("the edge tolerance must be a finite number >= 0, got " + std::to_string(edge_tolerance));
+  }
   occt::PartOptions options;
   options.scheme = scheme;
   options.edge_tolerance = edge_tolerance;

@@ -16,6 +16,7 @@
 namespace sagitta::app {
 
 // The mesher's options from a scheme and an edge tolerance (0: the scheme's own edge density).
+// Throws InputError for a negative or non-finite edge tolerance.
 occt::PartOptions part_options(const SchemeSpec& scheme, double edge_tolerance);
 
 // The part mesh's stats: faces, faces_tessellated, faces_skipped, faces_trimmed, skipped [{face,
