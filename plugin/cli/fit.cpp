@@ -2,6 +2,7 @@
 #include "commands.hpp"
 #include "progress.hpp"
 
+#include "sagitta/app/part.hpp"
 #include "sagitta/io/mesh_io.hpp"
 
 #include <cmath>
@@ -28,6 +29,7 @@ void run_fit(const FitCliOptions& o) {
   if (!(o.target_error > 0.0) || !std::isfinite(o.target_error)) {
     throw InputError("--target-error must be a positive number of model units, got " + std::to_string(o.target_error));
   }
+  app::refuse_cad_part(o.input, "fit");
   const Model model = load_model(o.input);
   const Topology topology = build_topology(model);
   FitOptions options;

@@ -4,6 +4,7 @@
 #include "commands.hpp"
 #include "progress.hpp"
 
+#include "sagitta/app/part.hpp"
 #include "sagitta/certify.hpp"
 #include "sagitta/esc.hpp"
 #include "sagitta/fit.hpp"
@@ -211,6 +212,7 @@ void run_report(const ReportCliOptions& o) {
     }
   }
   check_outputs(outputs, o.inputs);
+  for (const std::string& input : o.inputs) app::refuse_cad_part(input, "report");
   std::vector<NamedModel> models;
   for (const std::string& input : o.inputs) {
     models.push_back({input == "default" ? "default" : std::filesystem::path(input).filename().string(), load_model(input)});

@@ -6,6 +6,7 @@
 #include "report.hpp"
 #include "schemes.hpp"
 
+#include "sagitta/app/part.hpp"
 #include "sagitta/certify.hpp"
 #include "sagitta/fit.hpp"
 #include "sagitta/io/mesh_io.hpp"
@@ -64,6 +65,7 @@ void run_main_job(const RunOptions& o) {
     outputs.push_back({file, (std::filesystem::path(o.out_dir) / file).string()});
   }
   check_outputs(outputs, {o.input});
+  app::refuse_cad_part(o.input, "run");
   const Model model = load_model(o.input);
   const Topology topology = build_topology(model);
   std::filesystem::create_directories(o.out_dir);

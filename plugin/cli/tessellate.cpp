@@ -1,8 +1,10 @@
 #include "commands.hpp"
 #include "schemes.hpp"
 
+#include "sagitta/app/part.hpp"
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/io/model_io.hpp"
+#include "sagitta/occt/cad.hpp"
 
 #include <algorithm>
 #include <iostream>
@@ -16,6 +18,7 @@ struct TessellateOptions {
   std::string input;
   SchemeOptions scheme;
   int copies = 1;
+  double edge_tolerance = 0.0;
   std::string out;
   std::string stats;
 };
@@ -47,14 +50,50 @@ void run_tessellate_mesh(const TessellateOptions& o) {
             << " s\n";
 }
 
+// A CAD part (.step, .iges, .brep): every face through the whole-part mesher into one mesh; the
+// stats are app::part_json's plus the per-solid closedness (topology only, no CGAL).
+void run_tessellate_part(const TessellateOptions& o) {
+  if (o.copies != 1) throw InputError(o.input + ": --copies applies to patch models, not to CAD parts");
+  const occt::PartMesh part = occt::mesh_part_file(o.input, app::part_options(scheme_spec(o.scheme), o.edge_tolerance));
+  SolidCheckOptions check_options;
+  check_options.cgal = false;
+  const app::PartValidation check = app::validate_part(part, check_options);
+  nlohmann::json stats = app::part_json(part);
+  stats["input"] = o.input;
+  stats["scheme"] = o.scheme.scheme;
+  stats["edge_tolerance"] = o.edge_tolerance;
+  stats["degenerate_triangles"] = part.mesh.degenerate_triangles;
+  stats["watertight"] = check.watertight;
+  stats["crack_edges"] = check.crack_edges;
+  stats["t_junctions"] = check.t_junctions;
+  stats["non_manifold_edges"] = check.non_manifold_edges;
+  size_t closed = 0;
+  for (const app::SolidVolume& s : check.volumes) closed += s.mesh_closed ? 1 : 0;
+  stats["closed_solids"] = check.volumes.size();
+  stats["closed_solid_meshes"] = closed;
+  if (!o.out.empty()) {
+    io::write_mesh(part.mesh, o.out);
+    stats["output"] = o.out;
+  }
+  if (!o.stats.empty()) write_json(o.stats, stats);
+  std::cout << o.scheme.scheme << ": " << part.faces_tessellated << "/" << part.faces.size() << " faces tessellated, "
+            << part.faces_skipped << " skipped, " << part.mesh.triangles.size() << " triangles, "
+            << part.mesh.positions.size() << " vertices, closed solids closed " << closed << "/" << check.volumes.size()
+            << ", cracks " << check.crack_edges << ", in " << part.seconds << " s\n";
+}
+
 void run_tessellate(const TessellateOptions& o) {
   check_outputs({{"--out", o.out}, {"--stats", o.stats}}, {o.input});
   if (io::is_mesh_file(o.input)) {
     run_tessellate_mesh(o);
     return;
   }
-  nlohmann::json cad;
-  Model model = load_model(o.input, &cad);
+  if (occt::is_cad_file(o.input)) {
+    run_tessellate_part(o);
+    return;
+  }
+  if (o.edge_tolerance != 0.0) throw InputError("--edge-tolerance applies to CAD parts only");
+  Model model = load_model(o.input);
   // Refuse before replicating a model that cannot fit: the mesh, the copies and their topology.
   int degree = 1;
   for (const BezierPatch& p : model.patches) degree = std::max({degree, p.degree_u, p.degree_v});
@@ -66,7 +105,6 @@ void run_tessellate(const TessellateOptions& o) {
   model = replicate(model, o.copies);
   const Topology topology = build_topology(model);
   nlohmann::json stats;
-  if (!cad.is_null()) stats.update(cad);
   stats["input"] = o.input.empty() ? "default" : o.input;
   stats["copies"] = o.copies;
   stats["patches"] = model.patches.size();
@@ -88,22 +126,25 @@ void run_tessellate(const TessellateOptions& o) {
   std::cout << stats["scheme"].get<std::string>() << ": " << model.patches.size() << " patches -> "
             << mesh.triangles.size() << " triangles (" << mesh.degenerate_triangles << " degenerate not emitted), "
             << mesh.positions.size() << " vertices in " << stats["seconds"].get<double>() << " s\n";
-  if (!cad.is_null()) {
-    std::cout << "faces: " << cad["faces"] << " (" << cad["faces_tessellated"] << " tessellated, " << cad["faces_trimmed"]
-              << " trimmed, " << cad["faces_skipped"] << " skipped; listed in --stats)\n";
-  }
 }
 
 }  // namespace
 
 Command register_tessellate(CLI::App& app) {
   auto o = std::make_shared<TessellateOptions>();
-  CLI::App* cmd = app.add_subcommand("tessellate", "Tessellate a patch model (.bpt, .rib) and write the mesh and statistics");
-  cmd->add_option("input", o->input, "Patch file (.bpt, .rib); omit or 'default' for the built-in model; or a mesh (.obj, .ply, .stl) for --scheme pn");
+  CLI::App* cmd = app.add_subcommand(
+      "tessellate", "Tessellate a patch model (.bpt, .rib) or a whole CAD part and write the mesh and statistics");
+  cmd->add_option("input", o->input,
+                  "Patch file (.bpt, .rib); omit or 'default' for the built-in model; a CAD part (.step, .stp, .iges, "
+                  ".igs, .brep, .brp: every face, one mesh watertight across faces); or a mesh (.obj, .ply, .stl) for "
+                  "--scheme pn");
   add_scheme_options(cmd, o->scheme);
   cmd->add_option("--copies", o->copies, "Place K translated instances of the model (the papers' scenes)")
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
+  cmd->add_option("--edge-tolerance", o->edge_tolerance,
+                  "CAD parts: split every B-rep edge until each chord is within this distance of the curve (0: the "
+                  "scheme's density only)");
   cmd->add_option("--out", o->out, "Mesh output: .obj, .ply (binary) or .stl (binary); written atomically");
   cmd->add_option("--stats", o->stats, "Statistics JSON: scheme, patches, vertices, triangles, degenerate_triangles, seconds");
   return {cmd, [o] { run_tessellate(*o); }};

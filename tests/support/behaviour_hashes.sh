@@ -36,15 +36,24 @@ for m in "${models[@]}"; do
       esc) args=(--scheme esc --level 3 --threshold 0.01) ;;
       pn) args=(--scheme pn --level 3 --base-level 1) ;;
     esac
-    "$bin" --threads 2 tessellate "$m" "${args[@]}" --out "t_${name}_$scheme.ply" --stats "t_${name}_$scheme.json" >/dev/null
-    record_mesh "tessellate $name $scheme mesh" "t_${name}_$scheme.ply"
-    record_json "tessellate $name $scheme stats" "t_${name}_$scheme.json"
+    rc=0
+    "$bin" --threads 2 tessellate "$m" "${args[@]}" --out "t_${name}_$scheme.ply" --stats "t_${name}_$scheme.json" \
+      >/dev/null 2>"t_${name}_$scheme.err" || rc=$?
+    if [[ $rc == 0 ]]; then
+      record_mesh "tessellate $name $scheme mesh" "t_${name}_$scheme.ply"
+      record_json "tessellate $name $scheme stats" "t_${name}_$scheme.json"
+    else  # refused (pn on a CAD part): the exit code and the message, the data folder's path removed
+      echo "$( (echo "exit $rc"; sed "s|$data|DATA|g" "t_${name}_$scheme.err") | h)  tessellate $name $scheme exit code and message"
+    fi
     rc=0
     "$bin" --threads 2 validate "$m" "${args[@]}" --json "v_${name}_$scheme.json" --error-ply "v_${name}_$scheme.ply" \
       --max-error 0.05 --require-watertight >/dev/null 2>&1 || rc=$?
     echo "$(echo "exit $rc" | h)  validate $name $scheme exit code"
-    record_json "validate $name $scheme report" "v_${name}_$scheme.json"
-    record_mesh "validate $name $scheme error-ply" "v_${name}_$scheme.ply"
+    # (A refused run writes neither file: the hash of the word "absent" stands for it.)
+    if [[ -f "v_${name}_$scheme.json" ]]; then record_json "validate $name $scheme report" "v_${name}_$scheme.json"
+    else echo "$(echo absent | h)  validate $name $scheme report"; fi
+    if [[ -f "v_${name}_$scheme.ply" ]]; then record_mesh "validate $name $scheme error-ply" "v_${name}_$scheme.ply"
+    else echo "$(echo absent | h)  validate $name $scheme error-ply"; fi
   done
 done
 for m in default "$data/teapot.bpt" "$data/cad/wing.brep"; do
@@ -53,7 +62,7 @@ for m in default "$data/teapot.bpt" "$data/cad/wing.brep"; do
     rc=0
     "$bin" --threads 2 fit "$m" --scheme "$scheme" --target-error 0.01 --json "f_${name}_$scheme.json" \
       --out "f_${name}_$scheme.ply" >/dev/null 2>"f_${name}_$scheme.err" || rc=$?
-    echo "$( (echo "exit $rc"; cat "f_${name}_$scheme.err") | h)  fit $name $scheme exit code and message"
+    echo "$( (echo "exit $rc"; sed "s|$data|DATA|g" "f_${name}_$scheme.err") | h)  fit $name $scheme exit code and message"
     if [[ $rc == 0 ]]; then
       record_json "fit $name $scheme json" "f_${name}_$scheme.json"
       record_mesh "fit $name $scheme mesh" "f_${name}_$scheme.ply"

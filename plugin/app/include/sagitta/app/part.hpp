@@ -1,0 +1,94 @@
+// Whole CAD parts in the front ends: the part mesher's options and JSON (sagitta/occt/part.hpp),
+// the per-solid verdict of a part mesh, and the distance certificate on the faces where today's
+// certifier applies (untrimmed faces whose triangles stay in their patches; issue 15 does the rest).
+#pragma once
+
+#include "sagitta/certify.hpp"
+#include "sagitta/occt/part.hpp"
+#include "sagitta/scheme.hpp"
+#include "sagitta/solid_check.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+#include <vector>
+
+namespace sagitta::app {
+
+// The mesher's options from a scheme and an edge tolerance (0: the scheme's own edge density).
+// Throws InputError for a negative or non-finite edge tolerance.
+occt::PartOptions part_options(const SchemeSpec& scheme, double edge_tolerance);
+
+// The part mesh's stats: faces, faces_tessellated, faces_skipped, faces_trimmed, skipped [{face,
+// surface, reason}], bezier_patches, edges, edge_vertices, triangles, vertices, seconds, face_list
+// [{face, surface, trimmed, solid, status, reason, triangles, scheme_triangles}] and solids [{solid,
+// closed, valid, volume, faces, triangles}] (closed/valid/volume as OCCT sees the B-rep solid).
+nlohmann::json part_json(const occt::PartMesh& part);
+
+// A B-rep solid that OCCT finds closed and valid, next to its mesh's verdict.
+struct SolidVolume {
+  int solid = -1;
+  bool mesh_closed = false;     // the solid's triangles form a closed surface (SolidCheck::closed)
+  double mesh_volume = 0.0;     // SolidCheck::signed_volume (0 when not closed)
+  double occt_volume = 0.0;     // PartSolid::volume
+  double relative_error = 0.0;  // |mesh - occt| / |occt|; +infinity when the mesh is not closed or occt is 0
+};
+
+// check_solids on a part mesh, summarised.
+struct PartValidation {
+  std::vector<SolidCheck> checks;    // one per solid id present (-1: triangles outside every solid)
+  std::vector<SolidVolume> volumes;  // one per closed and valid B-rep solid, in solid order
+  uint64_t crack_edges = 0, t_junctions = 0, non_manifold_edges = 0, model_boundary_edges = 0;
+  // No crack, T-junction or non-manifold edge in any solid (open edges on the part's
+  // boundary_edges are the model's boundary, not cracks).
+  bool watertight = false;
+  // Every closed and valid B-rep solid has a closed mesh.
+  bool closed_solids_closed = false;
+  double seconds = 0.0;
+};
+
+PartValidation validate_part(const occt::PartMesh& part, const SolidCheckOptions& options = {});
+
+// The summary fields plus solid_checks_json's list ("solid_checks") and the volume comparison.
+nlohmann::json part_validation_json(const PartValidation& validation);
+
+// Today's distance certificate (certify_distance) on the faces where it is a proof: untrimmed,
+// tessellated faces whose every triangle's (u, v) lies in [0, 1]^2 of its patch (within 1e-12,
+// clamped onto it). They are certified together as one sub-mesh against the model made of their
+// patches; every other face is listed as not certified, with its reason.
+struct FaceCertificate {
+  int face = 0;
+  bool certified = false;  // covered by the certificate and its upper bound is finite
+  std::string reason;      // why not covered ("" when covered)
+  double upper = 0.0;      // the largest certified per-triangle bound of the face (when covered)
+};
+
+struct PartCertificate {
+  std::vector<FaceCertificate> faces;  // one per PartMesh face
+  int faces_certified = 0;
+  uint64_t triangles = 0;   // in the certified sub-mesh
+  uint64_t patches = 0;     // in the sub-model
+  DistanceReport distance;  // of the sub-mesh (empty when no face is covered)
+  // Every face of the part is covered and the sub-mesh's Hausdorff upper bound is certified: only
+  // then is the part's mesh certified.
+  bool all_certified = false;
+  // Per triangle of the whole part mesh: the certified bound, +infinity outside the certified faces.
+  std::vector<double> triangle_upper;
+  double seconds = 0.0;
+};
+
+// The reason a face is left out when trimmed (the certificate of trimmed faces is issue 15's).
+inline constexpr const char* kTrimmedNotCertified = "trimmed face: certificate not implemented yet (issue 15)";
+
+PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& options = {});
+
+// certified (all_certified), faces_certified, faces_not_certified [{face, reason}], face_upper
+// [{face, upper}] (each certified face's largest per-triangle bound), the sub-mesh's
+// hausdorff / mesh_to_surface / surface_to_mesh intervals, certified_triangles, certified_patches, seconds.
+nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCertificate& certificate);
+
+// Refuses (InputError, one line naming the file and issue 15) a CAD part given to a command that
+// has no whole-part path yet (fit, report, run). Does nothing for other inputs.
+void refuse_cad_part(const std::string& input, const std::string& command);
+
+}  // namespace sagitta::app

@@ -1,0 +1,138 @@
+#!/usr/bin/env bash
+# Whole CAD parts through `sagitta tessellate` and `sagitta validate` (issue 14 item 5). Env:
+# SAGITTA, SHARED_DATA; FIXTURES: the FreeCAD-built parts with facts.json (may be empty: those
+# checks are skipped). References: the PLY file's own face count, FreeCAD's facts.json (faces,
+# trimmed faces, volume), and the B-rep's own free edges for the open shell.
+set -euo pipefail
+: "${SAGITTA:?}"
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+field() { python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))" "$1" "$2"; }
+# The face count a binary PLY declares, and the faces an OBJ lists (independent of our JSON).
+ply_faces() { python3 -c "
+import sys
+for line in open(sys.argv[1], 'rb').read().split(b'end_header')[0].decode().splitlines():
+    if line.startswith('element face'): print(line.split()[2])" "$1"; }
+obj_faces() { grep -c '^f ' "$1"; }
+fact() { python3 -c "
+import json,sys
+d=[p for p in json.load(open(sys.argv[1]))['parts'] if p['file']==sys.argv[2]][0]; print(d[sys.argv[3]])" \
+  "$FIXTURES/facts.json" "$1" "$2"; }
+
+parts=()
+[[ -f "${SHARED_DATA:-}/cad/bottle.brep" ]] && parts+=("$SHARED_DATA/cad/bottle.brep")
+[[ -f "${SHARED_DATA:-}/cad/step/pr1ct.stp" ]] && parts+=("$SHARED_DATA/cad/step/pr1ct.stp")
+if [[ -n "${FIXTURES:-}" && -f "$FIXTURES/facts.json" ]]; then
+  parts+=("$FIXTURES/plate_with_holes.brep" "$FIXTURES/open_box_shell.brep" "$FIXTURES/box_cut_by_cylinder.brep")
+fi
+[[ ${#parts[@]} -gt 0 ]] || { echo "no CAD data: skipping"; exit 0; }
+
+# tessellate: the mesh file holds the triangles the JSON counts; every face tessellated.
+for p in "${parts[@]}"; do
+  name=$(basename "$p")
+  out=$("$SAGITTA" tessellate "$p" --level 2 --out "$tmp/m.ply" --stats "$tmp/s.json") || fail "$name: tessellate exit $?"
+  [[ $(printf '%s\n' "$out" | wc -l) == 1 ]] || fail "$name: summary not one line: $out"
+  [[ $out == *"faces tessellated"*"closed solids closed"* ]] || fail "$name: summary '$out'"
+  [[ $(ply_faces "$tmp/m.ply") == $(field "$tmp/s.json" "d['triangles']") ]] || fail "$name: PLY faces != JSON triangles"
+  [[ $(field "$tmp/s.json" "d['faces_tessellated'] == d['faces'] and d['faces_skipped'] == 0") == True ]] \
+    || fail "$name: not every face tessellated: $(field "$tmp/s.json" "d['skipped']")"
+  [[ $(field "$tmp/s.json" "len(d['face_list']) == d['faces'] and sum(f['triangles'] for f in d['face_list']) == d['triangles']") == True ]] \
+    || fail "$name: face_list does not add up"
+  if [[ $p == "${FIXTURES:-/nonexistent}"/* ]]; then
+    [[ $(field "$tmp/s.json" "d['faces']") == $(fact "$name" faces) ]] || fail "$name: faces differ from FreeCAD's"
+    [[ $(field "$tmp/s.json" "d['faces_trimmed']") == $(fact "$name" trimmed_faces) ]] || fail "$name: trimmed faces differ from FreeCAD's"
+  fi
+done
+# The same mesh as OBJ: as many faces.
+p=${parts[0]}
+"$SAGITTA" tessellate "$p" --level 2 --out "$tmp/m.obj" --stats "$tmp/s.json" >/dev/null
+[[ $(obj_faces "$tmp/m.obj") == $(field "$tmp/s.json" "d['triangles']") ]] || fail "OBJ faces != JSON triangles"
+
+if [[ -n "${FIXTURES:-}" && -f "$FIXTURES/facts.json" ]]; then
+  # A closed solid with trimmed faces: watertight, closed, volume near FreeCAD's, never "certified".
+  plate="$FIXTURES/plate_with_holes.brep"
+  out=$("$SAGITTA" validate "$plate" --level 3 --require-watertight --json "$tmp/v.json") || fail "plate: --require-watertight exit $?"
+  [[ $(field "$tmp/v.json" "d['certified']") == False ]] || fail "plate: certified with trimmed faces"
+  [[ $out != *$'\n'"certified"* && $out == *"not certified"* ]] || fail "plate: headline '$out'"
+  [[ $(field "$tmp/v.json" "d['watertight'] and d['validation']['crack_edges'] == 0") == True ]] || fail "plate: not watertight"
+  volume=$(fact plate_with_holes.brep volume)
+  [[ $(field "$tmp/v.json" "all(v['mesh_closed'] for v in d['validation']['volumes']) and len(d['validation']['volumes']) == 1") == True ]] \
+    || fail "plate: the solid's mesh is not closed"
+  [[ $(field "$tmp/v.json" "abs(d['validation']['volumes'][0]['mesh_volume'] - $volume) <= 2e-2 * $volume") == True ]] \
+    || fail "plate: mesh volume far from FreeCAD's $volume"
+  [[ $(field "$tmp/v.json" "sum(f['reason'].startswith('trimmed face') for f in d['certificate']['faces_not_certified']) == d['faces_trimmed'] > 0") == True ]] \
+    || fail "plate: trimmed faces not listed as not certified"
+  # --max-error cannot hold on a part that is not certified everywhere: exit 3.
+  set +e
+  "$SAGITTA" validate "$plate" --level 2 --max-error 1e9 >/dev/null 2>&1; code=$?
+  set -e
+  [[ $code == 3 ]] || fail "plate: --max-error without a certificate: exit $code"
+
+  # --edge-tolerance t: each hole's circles (r 6 through, r 4 blind; two circles each) need at least
+  # pi / acos(1 - t / r) chords of sagitta <= t, so at least that many edge vertices.
+  "$SAGITTA" tessellate "$plate" --level 1 --edge-tolerance 0.01 --stats "$tmp/e.json" >/dev/null || fail "plate: --edge-tolerance"
+  [[ $(field "$tmp/e.json" "d['edge_vertices'] >= sum(2 * __import__('math').ceil(__import__('math').pi / __import__('math').acos(1 - 0.01 / r)) for r in (6, 4))") == True ]] \
+    || fail "plate: too few edge vertices for --edge-tolerance 0.01: $(field "$tmp/e.json" "d['edge_vertices']")"
+  set +e
+  "$SAGITTA" tessellate "$plate" --level 1 --edge-tolerance -1 >/dev/null 2>&1; code=$?
+  set -e
+  [[ $code == 2 ]] || fail "a negative --edge-tolerance: exit $code"
+
+  # The open shell: its rim is model boundary, not a crack.
+  shell="$FIXTURES/open_box_shell.brep"
+  "$SAGITTA" validate "$shell" --level 2 --require-watertight --json "$tmp/o.json" >/dev/null || fail "open shell: exit $?"
+  [[ $(field "$tmp/o.json" "d['validation']['crack_edges'] == 0 and d['validation']['model_boundary_edges'] > 0") == True ]] \
+    || fail "open shell: rim not model boundary: $(field "$tmp/o.json" "d['validation']")"
+fi
+
+# A part with untrimmed faces only can be certified, face by face, and then says so.
+if [[ -f "${SHARED_DATA:-}/cad/shell1.brep" ]]; then
+  out=$("$SAGITTA" validate "$SHARED_DATA/cad/shell1.brep" --level 1 --json "$tmp/c.json") || fail "shell1: exit $?"
+  if [[ $(field "$tmp/c.json" "d['faces_trimmed']") == 0 ]]; then
+    [[ $(field "$tmp/c.json" "d['certified'] and d['certificate']['faces_certified'] == d['faces']") == True ]] \
+      || fail "shell1 (untrimmed): not certified: $(field "$tmp/c.json" "d['certificate']['faces_not_certified'][:3]")"
+    [[ $out == *$'\n'"certified: hausdorff in ["* ]] || fail "shell1: headline '$out'"
+  fi
+  c="d['certificate']"
+  [[ $(field "$tmp/c.json" "len($c['face_upper']) == $c['faces_certified'] == d['faces'] - len($c['faces_not_certified'])") == True ]] \
+    || fail "shell1: certified and not certified faces do not add up"
+  if [[ $(field "$tmp/c.json" "$c['faces_certified']") != 0 ]]; then
+    [[ $(field "$tmp/c.json" "max(f['upper'] for f in $c['face_upper']) <= $c['hausdorff']['upper']") == True ]] \
+      || fail "shell1: a face's bound above the Hausdorff bound"
+  fi
+fi
+
+# Malformed and truncated CAD files: exit 2, one line naming the file; an existing --out untouched.
+head -c 2000 "${parts[0]}" > "$tmp/cut.brep"
+printf 'ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION((\x27x\x27),\x272;1\x27);\n' > "$tmp/cut.step"
+if [[ -f "${SHARED_DATA:-}/cad/step/pr1ct.stp" ]]; then
+  size=$(stat -c %s "$SHARED_DATA/cad/step/pr1ct.stp")
+  head -c $((size / 2)) "$SHARED_DATA/cad/step/pr1ct.stp" > "$tmp/half.stp"
+fi
+echo keep > "$tmp/keep.ply"
+for f in "$tmp/cut.brep" "$tmp/cut.step" "$tmp"/half.stp; do
+  [[ -f $f ]] || continue
+  for cmd in tessellate validate; do
+    set +e
+    err=$("$SAGITTA" $cmd "$f" --level 1 $([[ $cmd == tessellate ]] && echo --out "$tmp/keep.ply") 2>&1 >/dev/null); code=$?
+    set -e
+    [[ $code != 0 ]] || fail "$cmd $f: exit 0 on a malformed file"
+    [[ $err == "sagitta: $f"* ]] || fail "$cmd $f: message '$err'"
+    [[ $(printf '%s\n' "$err" | wc -l) == 1 ]] || fail "$cmd $f: more than one line: $err"
+  done
+done
+[[ $(cat "$tmp/keep.ply") == keep ]] || fail "a failed tessellate touched --out"
+# No temporary file left beside the outputs.
+[[ -z $(find "$tmp" -name '*.tmp*' -o -name '.*~') ]] || fail "temporary files left: $(ls -a "$tmp")"
+
+# pn on a part, and fit / report / run on a CAD file: refused with one line naming the file.
+p=${parts[0]}
+for args in "tessellate $p --scheme pn --level 2" "fit $p --target-error 0.1" "report $p --out $tmp/rr" "run $p --out-dir $tmp/r"; do
+  set +e
+  err=$("$SAGITTA" $args 2>&1 >/dev/null); code=$?
+  set -e
+  [[ $code == 2 ]] || fail "'$args': exit $code, expected 2"
+  [[ $(printf '%s\n' "$err" | wc -l) == 1 && $err == *"$p"* ]] || fail "'$args': message '$err'"
+done
+[[ ! -e "$tmp/r/run.json" && ! -e "$tmp/rr/report.json" ]] || fail "run or report on a CAD file wrote outputs"
+echo "part_cli: all checks passed"
