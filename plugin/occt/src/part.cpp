@@ -354,6 +354,8 @@ void refine_to_tolerance(const BRepAdaptor_Curve& c, std::vector<double>& t, dou
   }
 }
 
+struct EdgePlan;
+
 struct PartBuilder {
   const PartOptions& options;
   const ShapeIndex& x;
@@ -368,6 +370,7 @@ struct PartBuilder {
   // and those found in this pass.
   const std::vector<std::vector<double>>& extra;
   std::map<int, std::vector<double>> crossing;
+  const std::vector<EdgePlan>& plans;
 
   uint32_t add_vertex(const Vec3& p) {
     out.mesh.positions.push_back(p);
@@ -378,26 +381,34 @@ struct PartBuilder {
   }
 };
 
-void sample_edge(PartBuilder& b, int e) {
-  const TopoDS_Edge edge = TopoDS::Edge(b.x.edges(e + 1).Oriented(TopAbs_FORWARD));
-  EdgeSamples& s = b.edges[e];
+// An edge's samples before any crossing split: parameters from the scheme's density on each face,
+// the turning and the chord tolerance (computed once per part, see mesh_shape).
+struct EdgePlan {
+  std::vector<double> t;
+  bool degenerated = false;
+  bool free = false;
+};
+
+EdgePlan plan_edge(const PartOptions& options, const ShapeIndex& x, const std::vector<FaceGeometry>& geometry, int e) {
+  const TopoDS_Edge edge = TopoDS::Edge(x.edges(e + 1).Oriented(TopAbs_FORWARD));
+  EdgePlan plan;
   TopoDS_Vertex v_first, v_last;
   TopExp::Vertices(edge, v_first, v_last);
   double first = 0.0, last = 0.0;
   BRep_Tool::Range(edge, first, last);
-  const std::vector<int> faces = faces_of_edge(b.x, edge);
-  const int segs = scheme_segments(b.options.scheme);
+  const std::vector<int> faces = faces_of_edge(x, edge);
+  const int segs = scheme_segments(options.scheme);
   int n = 1;
   for (int f : faces) {
-    if (!b.geometry[f].patches.empty()) n = std::max(n, static_cast<int>(std::ceil(grid_length(b.geometry[f], edge) * segs - 1e-9)));
+    if (!geometry[f].patches.empty()) n = std::max(n, static_cast<int>(std::ceil(grid_length(geometry[f], edge) * segs - 1e-9)));
   }
-  s.degenerated = BRep_Tool::Degenerated(edge);
+  plan.degenerated = BRep_Tool::Degenerated(edge);
   bool seam = false;
-  for (int f : faces) seam = seam || BRep_Tool::IsClosed(edge, b.geometry[f].face);
-  s.free = faces.size() == 1 && !seam && !s.degenerated;
+  for (int f : faces) seam = seam || BRep_Tool::IsClosed(edge, geometry[f].face);
+  plan.free = faces.size() == 1 && !seam && !plan.degenerated;
   const bool closed = !v_first.IsNull() && v_first.IsSame(v_last);
   std::unique_ptr<BRepAdaptor_Curve> curve;
-  if (!s.degenerated) {
+  if (!plan.degenerated) {
     curve = std::make_unique<BRepAdaptor_Curve>(edge);
     const double turn = turning(*curve, first, last);
     n = std::max(n, static_cast<int>(std::ceil(segs * turn / (kPi / 2) - 1e-9)));
@@ -405,16 +416,32 @@ void sample_edge(PartBuilder& b, int e) {
   }
   if (closed) n = std::max(n, 3);
   n = std::min(n, 1 << 16);
-  for (int k = 0; k <= n; ++k) s.t.push_back(k == n ? last : first + (last - first) * k / n);
-  double tol = b.options.edge_tolerance;
-  if (b.options.scheme.scheme == Scheme::kEsc && b.options.scheme.threshold > 0.0)
-    tol = tol > 0.0 ? std::min(tol, b.options.scheme.threshold) : b.options.scheme.threshold;
-  if (curve && tol > 0.0) refine_to_tolerance(*curve, s.t, tol, size_t(1) << 16);
+  for (int k = 0; k <= n; ++k) plan.t.push_back(k == n ? last : first + (last - first) * k / n);
+  double tol = options.edge_tolerance;
+  if (options.scheme.scheme == Scheme::kEsc && options.scheme.threshold > 0.0)
+    tol = tol > 0.0 ? std::min(tol, options.scheme.threshold) : options.scheme.threshold;
+  if (curve && tol > 0.0) refine_to_tolerance(*curve, plan.t, tol, size_t(1) << 16);
+  return plan;
+}
+
+// The edge's samples (its plan and the splits in b.extra) as mesh vertices; its ends are the B-rep
+// vertices' mesh vertices, a degenerated edge is its one vertex.
+void sample_edge(PartBuilder& b, int e) {
+  const TopoDS_Edge edge = TopoDS::Edge(b.x.edges(e + 1).Oriented(TopAbs_FORWARD));
+  EdgeSamples& s = b.edges[e];
+  const EdgePlan& plan = b.plans[e];
+  TopoDS_Vertex v_first, v_last;
+  TopExp::Vertices(edge, v_first, v_last);
+  s.degenerated = plan.degenerated;
+  s.free = plan.free;
+  s.t = plan.t;
   if (!b.extra[e].empty()) {
     s.t.insert(s.t.end(), b.extra[e].begin(), b.extra[e].end());
     std::sort(s.t.begin(), s.t.end());
     s.t.erase(std::unique(s.t.begin(), s.t.end()), s.t.end());
   }
+  std::unique_ptr<BRepAdaptor_Curve> curve;
+  if (!s.degenerated) curve = std::make_unique<BRepAdaptor_Curve>(edge);
   const auto vertex_id = [&](const TopoDS_Vertex& v) { return static_cast<uint32_t>(b.x.vertices.FindIndex(v) - 1); };
   for (size_t k = 0; k < s.t.size(); ++k) {
     if (s.degenerated) {
@@ -871,7 +898,7 @@ bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
 
 // ---------------------------------------------------------------------------------------------
 
-std::vector<PartSolid> solid_facts(const ShapeIndex& x) {
+std::vector<PartSolid> solid_facts(const ShapeIndex& x, bool occt_checks) {
   std::vector<PartSolid> solids;
   for (int s = 1; s <= x.solids.Extent(); ++s) {
     PartSolid ps;
@@ -884,6 +911,10 @@ std::vector<PartSolid> solid_facts(const ShapeIndex& x) {
       ps.closed = ps.closed && BRep_Tool::IsClosed(it.Current());
     }
     ps.closed = ps.closed && any_shell;
+    if (!occt_checks) {
+      solids.push_back(ps);
+      continue;
+    }
     try {
       ps.valid = BRepCheck_Analyzer(solid).IsValid();
       GProp_GProps props;
@@ -903,13 +934,9 @@ void check_scheme(const PartOptions& options, const std::string& name) {
   }
 }
 
-// One pass over the part: vertices, edges, then every face (mesh_shape repeats it with refined
-// edges while chords cross).
-void build_part(PartBuilder& b) {
+// The B-rep's vertices and every edge's samples into b.out (the first mesh vertices).
+void build_edges(PartBuilder& b) {
   const ShapeIndex& x = b.x;
-  std::vector<FaceGeometry>& geometry = b.geometry;
-  const PartOptions& options = b.options;
-  (void)options;
   for (int v = 1; v <= x.vertices.Extent(); ++v) b.add_vertex(to_vec(BRep_Tool::Pnt(TopoDS::Vertex(x.vertices(v)))));
   b.edges.resize(x.edges.Extent());
   for (int e = 0; e < x.edges.Extent(); ++e) sample_edge(b, e);
@@ -925,7 +952,79 @@ void build_part(PartBuilder& b) {
     if (!s.free) continue;
     for (size_t k = 0; k + 1 < s.vertex.size(); ++k) b.out.boundary_edges.push_back({s.vertex[k], s.vertex[k + 1]});
   }
-  b.out.solids = solid_facts(x);
+}
+
+// True when segments (a, b) and (c, d) share a point other than a common end (orientation tests
+// in double; the CDT's exact predicates are the backstop).
+bool segments_cross(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) {
+  if (a == c || a == d || b == c || b == d) return false;
+  const auto orient = [](const Vec2& p, const Vec2& q, const Vec2& r) {
+    const double o = (q.x - p.x) * (r.y - p.y) - (q.y - p.y) * (r.x - p.x);
+    return o > 0.0 ? 1 : (o < 0.0 ? -1 : 0);
+  };
+  const int o1 = orient(a, b, c), o2 = orient(a, b, d), o3 = orient(c, d, a), o4 = orient(c, d, b);
+  if (o1 * o2 > 0 || o3 * o4 > 0) return false;
+  if (o1 == 0 && o2 == 0) {  // collinear: overlapping extents
+    const Vec2 lo1 = glm::min(a, b), hi1 = glm::max(a, b), lo2 = glm::min(c, d), hi2 = glm::max(c, d);
+    return lo1.x <= hi2.x && lo2.x <= hi1.x && lo1.y <= hi2.y && lo2.y <= hi1.y;
+  }
+  return true;
+}
+
+// Loop chords of different edges (or far apart on one edge) that cross in some face's (U, V): the
+// longer of each crossing pair gets its middle added to its edge's samples (`extra`). Returns
+// whether any was found. Cheap (loops only), so the part is meshed once the loops are clean.
+bool split_crossing_chords(PartBuilder& b, std::vector<std::vector<double>>& extra, std::set<int>& faces) {
+  std::set<int> next;
+  for (int f : faces) {
+    const FaceGeometry& g = b.geometry[f];
+    if (g.patches.empty()) continue;
+    PartFace pf;
+    std::vector<LoopPoint> loop;
+    std::vector<std::array<uint32_t, 2>> segments;
+    std::vector<int> segment_edge;
+    if (!face_loops(b, g, loop, segments, segment_edge, pf) || segments.size() < 2) continue;
+    Vec2 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (const LoopPoint& p : loop) lo = glm::min(lo, p.q), hi = glm::max(hi, p.q);
+    const int cells = std::max(1, std::min(256, static_cast<int>(std::sqrt(double(segments.size())))));
+    const Vec2 size = glm::max((hi - lo) / double(cells), Vec2(1e-300));
+    std::vector<std::vector<uint32_t>> grid(size_t(cells) * cells);
+    const auto cell = [&](const Vec2& p, int axis) {
+      const double v = axis == 0 ? (p.x - lo.x) / size.x : (p.y - lo.y) / size.y;
+      return std::max(0, std::min(cells - 1, static_cast<int>(std::floor(v))));
+    };
+    std::set<std::pair<uint32_t, uint32_t>> tested;
+    std::map<int, std::set<double>> split;
+    for (uint32_t k = 0; k < segments.size(); ++k) {
+      const Vec2 a = loop[segments[k][0]].q, c = loop[segments[k][1]].q;
+      const Vec2 s0 = glm::min(a, c), s1 = glm::max(a, c);
+      for (int j = cell(s0, 1); j <= cell(s1, 1); ++j) {
+        for (int i = cell(s0, 0); i <= cell(s1, 0); ++i) {
+          for (uint32_t other : grid[size_t(j) * cells + i]) {
+            if (!tested.insert({other, k}).second) continue;
+            const Vec2 p = loop[segments[other][0]].q, q = loop[segments[other][1]].q;
+            if (!segments_cross(a, c, p, q)) continue;
+            const uint32_t longer = glm::length(c - a) >= glm::length(q - p) ? k : other;
+            split[segment_edge[longer]].insert(0.5 * (loop[segments[longer][0]].t + loop[segments[longer][1]].t));
+          }
+          grid[size_t(j) * cells + i].push_back(k);
+        }
+      }
+    }
+    for (const auto& [e, ts] : split) {
+      extra[e].insert(extra[e].end(), ts.begin(), ts.end());
+      for (int other : faces_of_edge(b.x, b.x.edges(e + 1))) next.insert(other);
+    }
+  }
+  faces.swap(next);
+  return !faces.empty();
+}
+
+// One pass over the part: vertices, edges, then every face (mesh_shape repeats it with refined
+// edges while chords cross).
+void build_part(PartBuilder& b) {
+  std::vector<FaceGeometry>& geometry = b.geometry;
+  build_edges(b);
   for (FaceGeometry& g : geometry) {
     PartFace pf;
     pf.face_index = g.report.face_index;
@@ -968,14 +1067,28 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
   if (x.faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
   std::vector<FaceGeometry> geometry;
   for (int f = 0; f < x.faces.Extent(); ++f) geometry.push_back(face_geometry(x, f, name, options.cad));
+  std::vector<EdgePlan> plans;
+  for (int e = 0; e < x.edges.Extent(); ++e) plans.push_back(plan_edge(options, x, geometry, e));
+  // Chords that cross are split first on the loops alone (each pass re-checks only the faces of the
+  // edges just split); near a vertex where two curves are tangent this takes a pass per chord.
   std::vector<std::vector<double>> extra(x.edges.Extent());
+  std::set<int> faces;
+  for (int f = 0; f < x.faces.Extent(); ++f) faces.insert(f);
+  for (int pass = 0; pass < 64; ++pass) {
+    PartMesh scratch;
+    PartBuilder b{options, x, geometry, scratch, {}, {}, {}, extra, {}, plans};
+    build_edges(b);
+    if (!split_crossing_chords(b, extra, faces)) break;
+  }
+  const std::vector<PartSolid> solids = solid_facts(x, options.solid_facts);
   for (int pass = 0;; ++pass) {
     out = PartMesh();
     out.name = name;
     out.model.name = name;
-    PartBuilder b{options, x, geometry, out, {}, {}, {}, extra, {}};
+    out.solids = solids;
+    PartBuilder b{options, x, geometry, out, {}, {}, {}, extra, {}, plans};
     build_part(b);
-    if (b.crossing.empty() || pass == 12) break;
+    if (b.crossing.empty() || pass == 8) break;
     for (const auto& [e, ts] : b.crossing) extra[e].insert(extra[e].end(), ts.begin(), ts.end());
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -57,6 +57,15 @@ std::vector<std::string> shared_cad_files() {
   return files;
 }
 
+// The levels the sweeps run at: 2 and 4 (level 2 only in the sanitizer build).
+std::vector<int> sweep_levels() {
+#ifdef SAGITTA_PART_LEVEL2_ONLY
+  return {2};
+#else
+  return {2, 4};
+#endif
+}
+
 std::string file_name(const std::string& path) { return std::filesystem::path(path).filename().string(); }
 
 PartMesh mesh(const std::string& path, int level) {
@@ -112,7 +121,7 @@ OcctMesh occt_triangulation(const TopoDS_Shape& solid) {
 
 // Every face of every shared file is tessellated, at level 2 and level 4.
 TEST(Part, EveryFaceOfEverySharedFileAtLevels2And4) {
-  for (int level : {2, 4}) {
+  for (int level : sweep_levels()) {
     for (const std::string& file : shared_cad_files()) {
       const PartMesh part = mesh(file, level);
       EXPECT_EQ(part.faces_tessellated, static_cast<int>(part.faces.size())) << file << " level " << level;
@@ -132,7 +141,7 @@ TEST(Part, EveryFaceOfEverySharedFileAtLevels2And4) {
 // 1 % of OCCT's and its Euler characteristic equals that of OCCT's own triangulation where that one
 // is closed.
 TEST(Part, ClosedValidSolidsComeOutClosed) {
-  for (int level : {2, 4}) {
+  for (int level : sweep_levels()) {
     for (const std::string& file : shared_cad_files()) {
       if (file_name(file) == "MAT.brep" && level == 4) continue;  // one open face of 3 million triangles at level 4
       const PartMesh part = mesh(file, level);
@@ -184,7 +193,7 @@ TEST(Part, FixturesHaveTheirGenusAndVolume) {
   for (const auto& part_facts : facts["parts"]) {
     const std::string file = kFixtures + "/" + part_facts["file"].get<std::string>();
     const std::vector<long long> euler = part_facts["euler_per_solid"].get<std::vector<long long>>();
-    for (int level : {2, 4}) {
+    for (int level : sweep_levels()) {
       const PartMesh part = mesh(file, level);
       EXPECT_EQ(part.faces_tessellated, static_cast<int>(part.faces.size())) << file;
       const std::vector<SolidCheck> checks = check_solids(part.mesh, part.triangle_solid, part.boundary_edges);

@@ -24,6 +24,10 @@ struct PartOptions {
   // (sampled; issue "Certified whole parts" proves it), on top of the scheme's own density.
   double edge_tolerance = 0.0;
   CadOptions cad;
+  // PartSolid::valid (BRepCheck_Analyzer) and ::volume (BRepGProp): OCCT's own facts about each
+  // solid, for the reports; off, they stay false / 0 (they cost more than the tessellation on
+  // large parts, so the benchmark leaves them out).
+  bool solid_facts = true;
 };
 
 // One face of the part (faces in TopExp::MapShapes order, named as FreeCAD names them).
@@ -49,8 +53,8 @@ struct PartFace {
 struct PartSolid {
   int index = 0;
   bool closed = false;        // every shell of the solid is closed (BRep_Tool::IsClosed)
-  bool valid = false;         // BRepCheck_Analyzer
-  double volume = 0.0;        // BRepGProp::VolumeProperties
+  bool valid = false;         // BRepCheck_Analyzer (PartOptions::solid_facts)
+  double volume = 0.0;        // BRepGProp::VolumeProperties (PartOptions::solid_facts)
   uint64_t faces = 0;
   uint64_t triangles = 0;
 };
