@@ -88,12 +88,13 @@ void run_tessellate(const TessellateOptions& o) {
     run_tessellate_mesh(o);
     return;
   }
-  if (occt::is_cad_file(o.input)) {
+  if (occt::is_cad_file(o.input) && occt::is_whole_part(occt::read_cad_file(o.input))) {
     run_tessellate_part(o);
     return;
   }
   if (o.edge_tolerance != 0.0) throw InputError("--edge-tolerance applies to CAD parts only");
-  Model model = load_model(o.input);
+  nlohmann::json cad;
+  Model model = load_model(o.input, &cad);
   // Refuse before replicating a model that cannot fit: the mesh, the copies and their topology.
   int degree = 1;
   for (const BezierPatch& p : model.patches) degree = std::max({degree, p.degree_u, p.degree_v});
@@ -105,6 +106,7 @@ void run_tessellate(const TessellateOptions& o) {
   model = replicate(model, o.copies);
   const Topology topology = build_topology(model);
   nlohmann::json stats;
+  if (!cad.is_null()) stats.update(cad);
   stats["input"] = o.input.empty() ? "default" : o.input;
   stats["copies"] = o.copies;
   stats["patches"] = model.patches.size();
@@ -126,6 +128,10 @@ void run_tessellate(const TessellateOptions& o) {
   std::cout << stats["scheme"].get<std::string>() << ": " << model.patches.size() << " patches -> "
             << mesh.triangles.size() << " triangles (" << mesh.degenerate_triangles << " degenerate not emitted), "
             << mesh.positions.size() << " vertices in " << stats["seconds"].get<double>() << " s\n";
+  if (!cad.is_null()) {
+    std::cout << "faces: " << cad["faces"] << " (" << cad["faces_tessellated"] << " tessellated, " << cad["faces_trimmed"]
+              << " trimmed, " << cad["faces_skipped"] << " skipped; listed in --stats)\n";
+  }
 }
 
 }  // namespace

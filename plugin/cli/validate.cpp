@@ -219,12 +219,14 @@ int run_validate_part(const ValidateOptions& o) {
 int run_validate(const ValidateOptions& o) {
   check_outputs({{"--json", o.json}, {"--error-ply", o.error_ply}}, {o.input, o.mesh});
   if (o.max_depth < 0 || o.max_depth > 10) throw InputError("--max-depth must be in 0..10");
-  if (occt::is_cad_file(o.input)) return run_validate_part(o);
+  if (occt::is_cad_file(o.input) && occt::is_whole_part(occt::read_cad_file(o.input))) return run_validate_part(o);
   if (o.edge_tolerance != 0.0) throw InputError("--edge-tolerance applies to CAD parts only");
   const Stopwatch total;
-  const Model model = load_model(o.input);
+  nlohmann::json cad;
+  const Model model = load_model(o.input, &cad);
   const Topology topology = build_topology(model);
   nlohmann::json doc;
+  if (!cad.is_null()) doc.update(cad);
   doc["input"] = o.input.empty() ? "default" : o.input;
   doc["patches"] = model.patches.size();
   Tessellation mesh;

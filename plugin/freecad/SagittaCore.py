@@ -79,11 +79,21 @@ def shape_model(links, name="selection"):
 
 
 def is_part_source(links):
-    """True when a linked shape has solids or shells: the source is a part (a PartDesign Body, a
-    solid, an imported STEP assembly, or faces of one), meshed whole and watertight across faces by
-    mesh_part_brep. Loose faces (Bézier patches, a compound of faces) keep the patch-model path."""
-    return any(getattr(obj, "Shape", None) is not None and not obj.Shape.isNull()
-               and (obj.Shape.Solids or obj.Shape.Shells) for obj, _ in links)
+    """True when a linked shape has solids or shells, or a trimmed face: the source is a part (a
+    PartDesign Body, a solid, an imported STEP assembly, or faces of one), meshed whole and watertight
+    across faces by mesh_part_brep. Loose untrimmed faces (Bézier patches, a compound of faces) keep
+    the patch-model path, as `sagitta tessellate` does for such a BREP file."""
+    if any(getattr(obj, "Shape", None) is not None and not obj.Shape.isNull()
+           and (obj.Shape.Solids or obj.Shape.Shells) for obj, _ in links):
+        return True
+    # Loose faces are a part too when one is trimmed (the patch path would leave it out): the same
+    # rule as the CLI's (_sagitta's read_brep_string: whole_part).
+    try:
+        faces = [f.copy() for _, fs in source_faces(links) for _, f in fs]
+        cad = _sagitta.read_brep_string(Part.makeCompound(faces).exportBrepToString(), "selection")
+    except (ValueError, SagittaError):
+        return False
+    return bool(cad["whole_part"])
 
 
 def part_brep_text(links):

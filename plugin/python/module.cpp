@@ -214,6 +214,9 @@ py::dict cad_dict(const occt::CadModel& cad) {
   d["faces_tessellated"] = cad.faces_tessellated;
   d["faces_trimmed"] = cad.faces_trimmed;
   d["faces_skipped"] = cad.faces_skipped;
+  d["solids"] = cad.solids;
+  d["shells"] = cad.shells;
+  d["whole_part"] = occt::is_whole_part(cad);
   return d;
 }
 

@@ -284,6 +284,8 @@ void silence_occt_messages() {
 
 std::string occt_version() { return OCC_VERSION_COMPLETE; }
 
+bool is_whole_part(const CadModel& cad) { return cad.solids > 0 || cad.shells > 0 || cad.faces_trimmed > 0; }
+
 bool is_cad_file(const std::string& path) {
   const std::string ext = io::file_extension(path);
   return ext == ".step" || ext == ".stp" || ext == ".iges" || ext == ".igs" || ext == ".brep" || ext == ".brp";
@@ -416,6 +418,11 @@ CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name
     cad.faces_skipped += r.status == "skipped";
   }
   cad.bezier_patches = static_cast<int>(cad.model.patches.size() + cad.trimmed_patches.size());
+  TopTools_IndexedMapOfShape solids, shells;
+  TopExp::MapShapes(shape, TopAbs_SOLID, solids);
+  TopExp::MapShapes(shape, TopAbs_SHELL, shells);
+  cad.solids = solids.Extent();
+  cad.shells = shells.Extent();
   if (!cad.model.patches.empty()) {
     const double diagonal = model_box(cad.model).diagonal();
     const double tol = options.snap_tolerance > 0.0 ? options.snap_tolerance

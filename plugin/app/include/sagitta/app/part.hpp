@@ -88,7 +88,8 @@ PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& o
 nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCertificate& certificate);
 
 // Refuses (InputError, one line naming the file and issue 15) a CAD part given to a command that
-// has no whole-part path yet (fit, report, run). Does nothing for other inputs.
+// has no whole-part path yet (fit, report, run). Does nothing for other inputs, loose untrimmed CAD
+// faces included (occt::is_whole_part: they keep the patch path).
 void refuse_cad_part(const std::string& input, const std::string& command);
 
 }  // namespace sagitta::app

@@ -50,7 +50,15 @@ struct CadModel {
   int snapped_patches = 0;      // patches with a boundary control point snapped onto a neighbour face's copy
   double max_snap = 0.0;        // the largest distance a control point moved while snapping
   double snap_tolerance = 0.0;  // the tolerance used
+  int solids = 0;               // TopoDS_Solid / TopoDS_Shell in the shape
+  int shells = 0;
 };
+
+// True when the shape is a part (a solid or a shell), or has a trimmed face: it is then meshed whole
+// (sagitta/occt/part.hpp) by the CLI, Python and FreeCAD alike. Loose untrimmed faces (a patch model
+// written as CAD faces, e.g. wing.brep) keep the patch path: the schemes on `model` with bit-exact
+// seams and the patch certificate.
+bool is_whole_part(const CadModel& cad);
 
 // Reads .step/.stp, .iges/.igs or .brep/.brp (by extension). Throws InputError with one line naming
 // the file for unreadable, empty or malformed input, and when no face can be converted at all.
