@@ -111,6 +111,13 @@ struct FaceGeometry {
   int nu = 0, nv = 0;             // patch grid
   double su = 1.0, sv = 1.0;      // scale of U and V in the CDT (mean |dS/dU|, |dS/dV|)
   double u_period = 0.0, v_period = 0.0;  // of the face's surface (0: not periodic)
+  // The scheme's tessellation of the face's patches (made once per part) and each of its vertices'
+  // (U, V) (exact patch-grid values on the patches' sides).
+  Tessellation scheme;
+  std::vector<Vec2> scheme_uv;
+  // The scheme's vertices on the outer sides of the patch range, by (U, V): a vertex the scheme
+  // shares across a closed surface's seam is listed at both sides.
+  std::map<std::pair<double, double>, uint32_t> scheme_sides;
   int solid = -1;
 };
 
@@ -266,6 +273,28 @@ FaceGeometry face_geometry(const ShapeIndex& x, int f, const std::string& name, 
   return g;
 }
 
+// The scheme's tessellation of the face's patches into g.scheme / g.scheme_uv.
+void tessellate_face_patches(FaceGeometry& g, const SchemeSpec& scheme) {
+  if (g.patches.empty()) return;
+  Model model;
+  model.patches = g.patches;
+  SchemeSpec spec = scheme;
+  spec.surface_data = true;
+  spec.vertex_normals = false;
+  g.scheme = tessellate(model, build_topology(model), spec);
+  g.scheme_uv.assign(g.scheme.positions.size(), Vec2(0.0));
+  const std::vector<double>& ub = g.report.u_breaks;
+  const std::vector<double>& vb = g.report.v_breaks;
+  for (size_t t = 0; t < g.scheme.triangles.size(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const Vec2 w = patch_to_uv(g, g.scheme.triangle_patch[t], g.scheme.triangle_uv[t][k]);
+      g.scheme_uv[g.scheme.triangles[t][k]] = w;
+      if (w.x == ub.front() || w.x == ub.back() || w.y == vb.front() || w.y == vb.back())
+        g.scheme_sides.emplace(std::make_pair(w.x, w.y), g.scheme.triangles[t][k]);
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Edges: sampled once, shared by every face that uses them.
 struct EdgeSamples {
@@ -387,7 +416,67 @@ struct EdgePlan {
   std::vector<double> t;
   bool degenerated = false;
   bool free = false;
+  // Where the edge runs along a side of an untrimmed face (its "owner", the first such face), its
+  // samples are that face's scheme vertices on the side: their parameters and the scheme's
+  // positions (by t), so the owner keeps its scheme triangles unchanged (mesh_face).
+  std::map<double, Vec3> owner_positions;
 };
+
+// The owner face g's scheme vertices on the edge (strictly between its ends) as (edge parameter,
+// scheme position); false when the edge is not an iso-line on a side of g's patch range. The
+// parameter of a vertex at (U, V) is found by bisection on the p-curve (monotone along an iso-line).
+bool owner_samples(const FaceGeometry& g, const TopoDS_Edge& edge, double first, double last,
+                   std::map<double, Vec3>& samples) {
+  const std::vector<double>& ub = g.report.u_breaks;
+  const std::vector<double>& vb = g.report.v_breaks;
+  const double eps_u = 1e-9 * (ub.back() - ub.front()), eps_v = 1e-9 * (vb.back() - vb.front());
+  bool any = false;
+  for (TopExp_Explorer it(g.face, TopAbs_EDGE); it.More(); it.Next()) {
+    const TopoDS_Edge occurrence = TopoDS::Edge(it.Current());
+    if (!occurrence.IsSame(edge)) continue;
+    double f = 0.0, l = 0.0;
+    const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(occurrence, g.face, f, l);
+    if (pc.IsNull()) return false;
+    const bool same = BRep_Tool::SameParameter(edge) && BRep_Tool::SameRange(edge);
+    const Vec2 shift = pcurve_shift(g, pc, f, l);
+    const auto uv_at = [&](double p) {
+      const gp_Pnt2d q = pc->Value(p);
+      return face_to_uv(g, q.X() + shift.x, q.Y() + shift.y);
+    };
+    const Vec2 a = uv_at(f), b = uv_at(l);
+    int axis;  // the coordinate that is constant along the side
+    if (std::abs(a.x - b.x) <= eps_u && (std::abs(a.x - ub.front()) <= eps_u || std::abs(a.x - ub.back()) <= eps_u)) {
+      axis = 0;
+    } else if (std::abs(a.y - b.y) <= eps_v &&
+               (std::abs(a.y - vb.front()) <= eps_v || std::abs(a.y - vb.back()) <= eps_v)) {
+      axis = 1;
+    } else {
+      return false;
+    }
+    const double side = axis == 0 ? (std::abs(a.x - ub.front()) <= eps_u ? ub.front() : ub.back())
+                                  : (std::abs(a.y - vb.front()) <= eps_v ? vb.front() : vb.back());
+    const double lo = std::min(a[1 - axis], b[1 - axis]), hi = std::max(a[1 - axis], b[1 - axis]);
+    const double eps = axis == 0 ? eps_v : eps_u;
+    for (const auto& [key, v] : g.scheme_sides) {
+      const Vec2 w(key.first, key.second);
+      if (w[axis] != side || w[1 - axis] <= lo + eps || w[1 - axis] >= hi - eps) continue;
+      // Bisection for the p-curve parameter whose (U, V) has w's coordinate along the side.
+      double p0 = f, p1 = l;
+      const bool increasing = b[1 - axis] > a[1 - axis];
+      for (int i = 0; i < 80; ++i) {
+        const double pm = 0.5 * (p0 + p1);
+        ((uv_at(pm)[1 - axis] < w[1 - axis]) == increasing ? p0 : p1) = pm;
+      }
+      const double p = 0.5 * (p0 + p1);
+      const double t = same || l == f ? p : first + (p - f) * (last - first) / (l - f);
+      samples.emplace(t, g.scheme.positions[v]);
+      any = true;
+    }
+    break;  // a seam's second copy runs along the other side at the same parameters
+  }
+  (void)any;
+  return true;
+}
 
 EdgePlan plan_edge(const PartOptions& options, const ShapeIndex& x, const std::vector<FaceGeometry>& geometry, int e) {
   const TopoDS_Edge edge = TopoDS::Edge(x.edges(e + 1).Oriented(TopAbs_FORWARD));
@@ -417,6 +506,21 @@ EdgePlan plan_edge(const PartOptions& options, const ShapeIndex& x, const std::v
   if (closed) n = std::max(n, 3);
   n = std::min(n, 1 << 16);
   for (int k = 0; k <= n; ++k) plan.t.push_back(k == n ? last : first + (last - first) * k / n);
+  // The owner: the first untrimmed face using the edge.
+  for (int f : faces) {
+    const FaceGeometry& g = geometry[f];
+    if (g.patches.empty() || g.report.status == "trimmed" || plan.degenerated) continue;
+    std::map<double, Vec3> samples;
+    if (owner_samples(g, edge, first, last, samples)) {
+      plan.t = {first};
+      for (const auto& [t, p] : samples) {
+        if (t > first && t < last) plan.t.push_back(t);
+      }
+      plan.t.push_back(last);
+      plan.owner_positions = std::move(samples);
+    }
+    break;
+  }
   double tol = options.edge_tolerance;
   if (options.scheme.scheme == Scheme::kEsc && options.scheme.threshold > 0.0)
     tol = tol > 0.0 ? std::min(tol, options.scheme.threshold) : options.scheme.threshold;
@@ -451,7 +555,8 @@ void sample_edge(PartBuilder& b, int e) {
     } else if (k + 1 == s.t.size() && !v_last.IsNull()) {
       s.vertex.push_back(vertex_id(v_last));
     } else {
-      s.vertex.push_back(b.add_vertex(to_vec(curve->Value(s.t[k]))));
+      const auto owned = plan.owner_positions.find(s.t[k]);
+      s.vertex.push_back(b.add_vertex(owned != plan.owner_positions.end() ? owned->second : to_vec(curve->Value(s.t[k]))));
     }
   }
 }
@@ -538,8 +643,15 @@ class SegmentGrid {
 // periods so that it starts where the previous one ended: a loop around a periodic surface stays
 // in one piece, and a seam's two copies land on the two sides of the domain. Returns false (with
 // a reason) when an edge has no p-curve on the face.
+// A degenerated edge's segment in (U, V) and its one mesh vertex.
+struct PoleLine {
+  Vec2 a, b;
+  uint32_t vertex = 0;
+};
+
 bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& points,
-                std::vector<std::array<uint32_t, 2>>& segments, std::vector<int>& segment_edge, PartFace& pf) {
+                std::vector<std::array<uint32_t, 2>>& segments, std::vector<int>& segment_edge, PartFace& pf,
+                std::vector<PoleLine>* pole_lines = nullptr) {
   // A degenerated edge (pole, apex) is one mesh vertex but a segment in (U, V). Were its samples
   // kept apart, the CDT could join one point to two of them, and the two triangles would fold onto
   // the same edge in space; so every loop point at that vertex moves to one point, the segment's
@@ -584,6 +696,7 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
     if (s.degenerated) {
       const Vec2 UV = uv_at(0.5 * (first + last));
       pole.emplace(s.vertex.front(), Vec2(UV.x * g.su, UV.y * g.sv));
+      if (pole_lines) pole_lines->push_back({uv_at(first), uv_at(last), s.vertex.front()});
       return;
     }
     const uint32_t start = static_cast<uint32_t>(points.size());
@@ -691,19 +804,11 @@ struct SchemeMesh {
   std::vector<uint32_t> mesh_vertex;  // per scheme vertex: part mesh vertex (created when used)
 };
 
-SchemeMesh scheme_mesh(PartBuilder& b, const FaceGeometry& g, const SegmentGrid& grid) {
+SchemeMesh scheme_mesh(const FaceGeometry& g, const SegmentGrid& grid) {
   SchemeMesh sm;
-  Model model;
-  model.patches = g.patches;
-  SchemeSpec spec = b.options.scheme;
-  spec.surface_data = true;
-  spec.vertex_normals = false;
-  sm.mesh = tessellate(model, build_topology(model), spec);
+  sm.mesh = g.scheme;
   const Tessellation& m = sm.mesh;
-  sm.vertex_uv.assign(m.positions.size(), Vec2(0.0));
-  for (size_t t = 0; t < m.triangles.size(); ++t) {
-    for (int k = 0; k < 3; ++k) sm.vertex_uv[m.triangles[t][k]] = patch_to_uv(g, m.triangle_patch[t], m.triangle_uv[t][k]);
-  }
+  sm.vertex_uv = g.scheme_uv;
   sm.kept.assign(m.triangles.size(), false);
   sm.mesh_vertex.assign(m.positions.size(), std::numeric_limits<uint32_t>::max());
   const Vec2 scale(g.su, g.sv);
@@ -771,18 +876,85 @@ void add_free_points(PartBuilder& b, const FaceGeometry& g, const SegmentGrid& g
   }
 }
 
+// An untrimmed face whose loop points are exactly its scheme's side vertices (its edges' owner, or
+// a neighbour sampled alike) keeps the scheme's tessellation unchanged: side vertices become the
+// edges' vertices, the rest new vertices. False (nothing emitted) when any side vertex or loop point
+// has no partner; mesh_face then takes the general path.
+bool try_keep_whole_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, const std::vector<LoopPoint>& loop,
+                         const std::vector<PoleLine>& poles) {
+  if (g.report.status == "trimmed" || g.scheme.triangles.empty()) return false;
+  const std::vector<double>& ub = g.report.u_breaks;
+  const std::vector<double>& vb = g.report.v_breaks;
+  const Vec2 eps(1e-9 * (ub.back() - ub.front()), 1e-9 * (vb.back() - vb.front()));
+  const Vec2 scale(g.su, g.sv);
+  const auto near = [&](const Vec2& p, const Vec2& q) {
+    return std::abs(p.x - q.x) <= eps.x && std::abs(p.y - q.y) <= eps.y;
+  };
+  const Tessellation& m = g.scheme;
+  constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> vertex(m.positions.size(), kNone);
+  std::vector<bool> matched(loop.size(), false);
+  for (const auto& [key, v] : g.scheme_sides) {
+    const Vec2 w(key.first, key.second);
+    bool found = false;
+    for (const PoleLine& pole : poles) {
+      const Vec2 lo = glm::min(pole.a, pole.b) - eps, hi = glm::max(pole.a, pole.b) + eps;
+      if (w.x < lo.x || w.x > hi.x || w.y < lo.y || w.y > hi.y) continue;
+      if (vertex[v] != kNone && vertex[v] != pole.vertex) return false;
+      vertex[v] = pole.vertex;
+      found = true;
+    }
+    for (size_t k = 0; k < loop.size(); ++k) {
+      if (!near(loop[k].q / scale, w)) continue;
+      if (vertex[v] != kNone && vertex[v] != loop[k].vertex) return false;
+      vertex[v] = loop[k].vertex;
+      matched[k] = true;
+      found = true;
+    }
+    if (!found) vertex[v] = kNone;
+    if (vertex[v] == kNone) return false;
+  }
+  for (size_t k = 0; k < loop.size(); ++k) {
+    if (!matched[k]) return false;
+  }
+  for (size_t v = 0; v < m.positions.size(); ++v) {
+    if (vertex[v] != kNone) continue;
+    vertex[v] = b.add_vertex(m.positions[v]);
+    const auto [patch, st] = locate_patch(g, g.scheme_uv[v].x, g.scheme_uv[v].y);
+    b.out.mesh.surface_points[vertex[v]] = {static_cast<uint32_t>(pf.first_patch + patch), st.x, st.y};
+    b.surface_point_set[vertex[v]] = true;
+  }
+  for (size_t t = 0; t < m.triangles.size(); ++t) {
+    const std::array<uint32_t, 3> tri = {vertex[m.triangles[t][0]], vertex[m.triangles[t][1]], vertex[m.triangles[t][2]]};
+    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0]) {
+      ++b.out.mesh.degenerate_triangles;
+      continue;
+    }
+    b.out.mesh.triangles.push_back(tri);
+    b.out.mesh.triangle_patch.push_back(static_cast<uint32_t>(pf.first_patch) + m.triangle_patch[t]);
+    b.out.mesh.triangle_uv.push_back(m.triangle_uv[t]);
+    b.out.triangle_face.push_back(static_cast<uint32_t>(g.report.face_index));
+    b.out.triangle_solid.push_back(g.solid);
+    ++pf.triangles;
+    ++pf.scheme_triangles;
+  }
+  return true;
+}
+
 // Tessellates one face into the part; false (pf.reason set) when it cannot.
 bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
   std::vector<LoopPoint> loop;
   std::vector<std::array<uint32_t, 2>> segments;
   std::vector<int> segment_edge;
-  if (!face_loops(b, g, loop, segments, segment_edge, pf)) return false;
+  std::vector<PoleLine> poles;
+  if (!face_loops(b, g, loop, segments, segment_edge, pf, &poles)) return false;
+  if (try_keep_whole_face(b, g, pf, loop, poles)) return true;
   if (segments.size() < 2) {
     pf.reason = "the face's boundary has no extent in its parameters";
     return false;
   }
   const SegmentGrid grid(loop, segments);
-  SchemeMesh sm = scheme_mesh(b, g, grid);
+  SchemeMesh sm = scheme_mesh(g, grid);
   const Tessellation& m = sm.mesh;
   const Vec2 scale(g.su, g.sv);
 
@@ -1067,6 +1239,7 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
   if (x.faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
   std::vector<FaceGeometry> geometry;
   for (int f = 0; f < x.faces.Extent(); ++f) geometry.push_back(face_geometry(x, f, name, options.cad));
+  for (FaceGeometry& g : geometry) tessellate_face_patches(g, options.scheme);
   std::vector<EdgePlan> plans;
   for (int e = 0; e < x.edges.Extent(); ++e) plans.push_back(plan_edge(options, x, geometry, e));
   // Chords that cross are split first on the loops alone (each pass re-checks only the faces of the

@@ -243,6 +243,56 @@ TEST(Part, EscSchemeGivesClosedSolids) {
   }
 }
 
+// Untrimmed faces keep the scheme's own tessellation: the edges along their patch sides take the
+// scheme's side vertices, so every triangle of such a face is one the scheme made on the face's
+// patches alone ((u, v) inside the patches), less the slivers at a pole that become one vertex,
+// and the part stays closed. (A face whose neighbour owns a shared edge with another side sampling
+// would take the general path; on these fixtures every untrimmed face keeps its tessellation.)
+TEST(Part, UntrimmedFacesKeepTheSchemeTriangles) {
+  if (kFixtures.empty()) GTEST_SKIP() << "no FreeCAD (freecadcmd) to build the fixtures";
+  for (const char* name : {"filleted_box.brep", "sphere.brep", "torus.brep", "open_box_shell.brep"}) {
+    for (int level : {2, 3}) {
+      const PartMesh part = mesh(kFixtures + "/" + name, level);
+      int kept = 0;
+      for (const PartFace& f : part.faces) {
+        if (f.trimmed) continue;
+        Model model;
+        model.patches.assign(part.model.patches.begin() + f.first_patch,
+                             part.model.patches.begin() + f.first_patch + f.patch_count);
+        SchemeSpec spec;
+        spec.level = level;
+        const Tessellation own = tessellate(model, build_topology(model), spec);
+        // The scheme's triangles that are slivers at a collapsed side (a pole): two corners in one point.
+        Vec3 lo(1e300), hi(-1e300);
+        for (const Vec3& p : own.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+        const double tiny = 1e-9 * glm::length(hi - lo);
+        size_t slivers = 0;
+        for (const Triangle& t : own.triangles) {
+          const Vec3 &a = own.positions[t[0]], &b = own.positions[t[1]], &c = own.positions[t[2]];
+          slivers += glm::length(a - b) <= tiny || glm::length(b - c) <= tiny || glm::length(c - a) <= tiny;
+        }
+        EXPECT_EQ(f.scheme_triangles, f.triangles) << name << " " << f.name << " level " << level;
+        EXPECT_EQ(f.triangles + slivers, own.triangles.size()) << name << " " << f.name << " level " << level;
+        ++kept;
+      }
+      for (size_t t = 0; t < part.mesh.triangles.size(); ++t) {
+        const PartFace& f = part.faces[part.triangle_face[t]];
+        if (f.trimmed || f.scheme_triangles != f.triangles) continue;
+        for (const Vec2& uv : part.mesh.triangle_uv[t]) {
+          ASSERT_TRUE(uv.x >= 0.0 && uv.x <= 1.0 && uv.y >= 0.0 && uv.y <= 1.0) << name << " triangle " << t;
+        }
+      }
+      const std::vector<SolidCheck> checks = check_solids(part.mesh, part.triangle_solid, part.boundary_edges);
+      for (const SolidCheck& c : checks) {
+        if (c.solid >= 0) EXPECT_TRUE(c.closed) << name << " level " << level;
+        EXPECT_EQ(c.crack_edges, 0u) << name;
+        EXPECT_EQ(c.t_junctions, 0u) << name;
+      }
+      std::printf("%s level %d: %d of %zu faces keep the scheme's tessellation\n", name, level, kept, part.faces.size());
+    }
+  }
+}
+
 // An open shell's free edges are the model's boundary, never cracks.
 TEST(Part, OpenShellRimIsModelBoundary) {
   if (kFixtures.empty()) GTEST_SKIP() << "no FreeCAD (freecadcmd) to build the fixtures";
