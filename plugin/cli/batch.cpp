@@ -56,8 +56,9 @@ std::string find_package_dir(const std::filesystem::path& exe) {
 
 Command register_batch(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
-      "batch", "Validate a library of CAD parts and patch models on Dask.distributed, one isolated child process "
-               "per file, results in SQLite (sagitta batch --help; docs/BATCH.md)");
+      "batch",
+      "Validate a library of CAD parts and patch models on Dask.distributed, one isolated child process "
+      "per file, results in SQLite (sagitta batch --help; docs/BATCH.md)");
   sub->set_help_flag();  // --help goes to the Python side with every other argument
   sub->prefix_command();
   sub->allow_extras();
