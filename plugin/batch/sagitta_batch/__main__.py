@@ -16,7 +16,7 @@ def main(argv=None):
     parser.add_argument("--command", choices=["validate", "tessellate"], default="validate",
                         help="sagitta subcommand run on each file (default validate: certified error)")
     parser.add_argument("--scheme", choices=["uniform", "esc"], help="tessellation scheme (sagitta's default: uniform)")
-    parser.add_argument("--level", type=int, help="tessellation level (see sagitta validate --help)")
+    parser.add_argument("--level", type=int, default=2, help="tessellation level (default 2; see sagitta validate --help)")
     parser.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
     parser.add_argument("--scheduler", help="address of an existing Dask scheduler, e.g. tcp://host:8786")
     parser.add_argument("--timeout", type=float, default=600.0, help="wall-time limit per file, seconds (600)")

@@ -99,12 +99,10 @@ def _pending(files, params, store):
     return todo
 
 
-def run(inputs, out, scheme=None, level=None, command="validate", workers=None, scheduler=None, timeout=600.0,
+def run(inputs, out, scheme=None, level=2, command="validate", workers=None, scheduler=None, timeout=600.0,
         memory=None, quiet=False):
     """Runs the batch and returns the summary dict (also written to OUT/summary.json, with OUT/report.html).
     Files already in OUT/results.sqlite with the same sha256 and parameters are skipped."""
-    from dask.distributed import as_completed
-
     files = expand_inputs(inputs)
     os.makedirs(out, exist_ok=True)
     exe = find_sagitta()
@@ -116,6 +114,8 @@ def run(inputs, out, scheme=None, level=None, command="validate", workers=None, 
     engine_errors = []
     started = time.monotonic()
     if todo:
+        from dask.distributed import as_completed
+
         client, cluster = _client(scheduler, workers or os.cpu_count())
         try:
             futures = {
