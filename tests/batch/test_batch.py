@@ -106,6 +106,15 @@ class PlantedFaults(unittest.TestCase):
             self.assertIn("0 processed now, 8 already done", again.stdout)
             self.assertEqual(rows(f"{tmp}/out"), got)
 
+    def test_work_estimated_above_the_memory_cap_is_out_of_memory(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            corpus = make_corpus(f"{tmp}/corpus", ["teapot.bpt"])  # level 9: about 2.1 GiB of triangles
+            run = batch([corpus, "--out", f"{tmp}/out", "--level", "9", "--workers", "1", "--memory", "1"])
+            self.assertEqual(run.returncode, 0, run.stderr)
+            got = rows(f"{tmp}/out")["teapot.bpt"]
+            self.assertEqual(got["outcome"], "out_of_memory")
+            self.assertIn("more than --max-memory 1", got["message"])
+
 
 def free_port():
     with socket.socket() as s:

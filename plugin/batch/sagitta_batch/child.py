@@ -9,7 +9,8 @@ import tempfile
 import time
 
 OUTCOMES = ("ok", "bad_input", "crashed", "timeout", "out_of_memory")
-_OOM_TEXT = ("bad_alloc", "MemoryError", "Cannot allocate memory", "out of memory", "ENOMEM")
+# Allocation failures under RLIMIT_AS, and sagitta's own refusal of work estimated above --max-memory.
+_OOM_TEXT = ("bad_alloc", "MemoryError", "Cannot allocate memory", "out of memory", "ENOMEM", "more than --max-memory")
 
 
 def _limit_memory(gib):
@@ -39,14 +40,17 @@ def _fault_command(path):
     return None
 
 
-def sagitta_command(exe, path, params, json_out):
-    """The sagitta command line for one file: `validate FILE --json OUT` or `tessellate FILE --stats OUT`."""
+def sagitta_command(exe, path, params, json_out, memory=None):
+    """The sagitta command line for one file: `validate FILE --json OUT` or `tessellate FILE --stats OUT`;
+    with a memory cap, also `--max-memory GiB` so that sagitta refuses work estimated above it up front."""
     command = params.get("command", "validate")
     cmd = [exe, command, path, "--json" if command == "validate" else "--stats", json_out]
     if params.get("scheme"):
         cmd += ["--scheme", params["scheme"]]
     if params.get("level") is not None:
         cmd += ["--level", str(params["level"])]
+    if memory:
+        cmd += ["--max-memory", str(memory)]
     return cmd
 
 
@@ -97,7 +101,7 @@ def run_file(exe, path, params, timeout=None, memory=None):
     start = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="sagitta-batch-") as tmp:
         json_out = os.path.join(tmp, "out.json")
-        cmd = sagitta_command(exe, path, params, json_out)
+        cmd = sagitta_command(exe, path, params, json_out, memory)
         fault = _fault_command(path)
         if fault == "delay":
             cmd = ["/bin/sh", "-c", 'sleep 1; exec "$@"', "sh"] + cmd
