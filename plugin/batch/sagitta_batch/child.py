@@ -1,5 +1,6 @@
 """One file, one child process: runs the sagitta CLI under a wall-time limit and a memory cap and turns
 whatever happens into a result dict. Runs on a Dask worker; imports nothing from Dask."""
+import ctypes
 import json
 import os
 import resource
@@ -11,12 +12,16 @@ import time
 OUTCOMES = ("ok", "bad_input", "crashed", "timeout", "out_of_memory")
 # Allocation failures under RLIMIT_AS, and sagitta's own refusal of work estimated above --max-memory.
 _OOM_TEXT = ("bad_alloc", "MemoryError", "Cannot allocate memory", "out of memory", "ENOMEM", "more than --max-memory")
+_LIBC = ctypes.CDLL(None, use_errno=True)
+_PR_SET_PDEATHSIG = 1
 
 
-def _limit_memory(gib):
-    """preexec_fn: caps the child's address space at `gib` GiB (RLIMIT_AS) (none when gib is 0 or None)."""
+def _child_setup(gib):
+    """preexec_fn: the child gets SIGKILL when the worker thread that started it dies (a killed worker leaves
+    no orphan), and its address space is capped at `gib` GiB (RLIMIT_AS; no cap when gib is 0 or None)."""
 
     def apply():
+        _LIBC.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
         if gib:
             limit = int(gib * 2**30)
             resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
@@ -108,7 +113,7 @@ def run_file(exe, path, params, timeout=None, memory=None):
         elif fault:
             cmd = fault
         proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                                errors="replace", start_new_session=True, preexec_fn=_limit_memory(memory))
+                                errors="replace", start_new_session=True, preexec_fn=_child_setup(memory))
         timed_out = False
         try:
             _, stderr = proc.communicate(timeout=timeout)
