@@ -2,6 +2,7 @@
 or an existing scheduler) one child process per file, record each result as it arrives, then report."""
 import datetime
 import hashlib
+import logging
 import os
 import shutil
 import subprocess
@@ -83,7 +84,9 @@ def _client(scheduler, workers):
 
     if scheduler:
         return Client(scheduler), None
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+    # Dask's own logs stay quiet (their shutdown races print tracebacks); lost tasks surface as engine errors.
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=logging.CRITICAL)
     return Client(cluster), cluster
 
 
