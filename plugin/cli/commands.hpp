@@ -24,6 +24,7 @@ Command register_fit(CLI::App& app);
 Command register_report(CLI::App& app);
 Command register_peer(CLI::App& app);
 Command register_bench(CLI::App& app);
+Command register_batch(CLI::App& app);  // takes no budget options: its arguments go to Python
 
 // The application layer's shared pieces, as the subcommands use them.
 using app::cad_json;

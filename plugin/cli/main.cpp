@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   };
   sagitta::cli::BudgetOptions budget;
   for (const auto& command : commands) sagitta::cli::add_budget_options(command.app, budget);
+  const sagitta::cli::Command batch = sagitta::cli::register_batch(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -46,6 +47,7 @@ int main(int argc, char** argv) {
     for (const auto& command : commands) {
       if (command.app->parsed()) command.run();
     }
+    if (batch.app->parsed()) batch.run();
   } catch (const std::exception& e) {
     std::cerr << "sagitta: " << e.what() << "\n";
     return 2;

@@ -1,0 +1,195 @@
+"""`sagitta batch` end to end (issue 19). Each test builds its corpus in a temporary folder from the shared data
+and planted faults (SAGITTA_BATCH_TEST_FAULT makes the child runner crash, hang or over-allocate for a named
+file), runs the real CLI with 2 workers, and checks results.sqlite against references computed independently:
+outcomes from how each file was made, patch counts from the .bpt headers, triangle counts and certified intervals
+from a direct `sagitta validate` run."""
+import json
+import os
+import shutil
+import signal
+import socket
+import sqlite3
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+SAGITTA = os.environ["SAGITTA"]
+DATA = os.environ["SHARED_DATA"]
+PYTHON = "/usr/bin/python3"
+
+try:
+    import distributed  # noqa: F401
+except ImportError:
+    sys.exit("test_batch: Dask.distributed is missing: run .ci/install-deps (Debian python3-distributed)")
+
+REAL = ["teacup.bpt", "teapot.bpt", "teaspoon.bpt", "cad/step/pr1ct.stp", "cad/wing.brep", "cad/step/OCC2368.stp"]
+
+
+def make_corpus(folder, names):
+    os.makedirs(folder, exist_ok=True)
+    for name in names:
+        shutil.copy(os.path.join(DATA, name), folder)
+    return folder
+
+
+def rows(out):
+    with sqlite3.connect(os.path.join(out, "results.sqlite")) as db:
+        db.row_factory = sqlite3.Row
+        return {os.path.basename(r["path"]): dict(r) for r in db.execute("SELECT * FROM results")}
+
+
+def batch(args, env=None, **kwargs):
+    full_env = dict(os.environ, **(env or {}))
+    return subprocess.run([SAGITTA, "batch", *args], env=full_env, capture_output=True, text=True, timeout=300, **kwargs)
+
+
+def bpt_patches(path):
+    with open(path) as f:
+        return int(f.readline().split()[0])
+
+
+def direct_validate(path, level):
+    """The reference: sagitta validate run directly on the file."""
+    with tempfile.TemporaryDirectory() as tmp:
+        subprocess.run([SAGITTA, "validate", path, "--level", str(level), "--json", f"{tmp}/r.json"], check=True,
+                       capture_output=True)
+        with open(f"{tmp}/r.json") as f:
+            return json.load(f)
+
+
+class PlantedFaults(unittest.TestCase):
+    def test_each_fault_recorded_others_ok_and_rerun_is_a_noop(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            corpus = make_corpus(f"{tmp}/corpus", REAL[:4])
+            with open(os.path.join(DATA, "cad/step/pr1ct.stp"), "rb") as f:
+                step = f.read()
+            with open(f"{corpus}/truncated.step", "wb") as f:
+                f.write(step[: len(step) // 3])
+            for name in ("crash", "hang", "hog"):  # distinct bytes: each its own sha256
+                with open(f"{corpus}/{name}.step", "wb") as f:
+                    f.write(step + f"/* {name} */".encode())
+            fault = {"SAGITTA_BATCH_TEST_FAULT": "crash:crash.step;hang:hang.step;hog:hog.step"}
+            args = [corpus, "--out", f"{tmp}/out", "--level", "2", "--workers", "2", "--timeout", "8", "--memory", "3"]
+            run = batch(args, env=fault)
+            self.assertEqual(run.returncode, 0, run.stderr)
+            got = rows(f"{tmp}/out")
+            expected = {"truncated.step": "bad_input", "crash.step": "crashed", "hang.step": "timeout",
+                        "hog.step": "out_of_memory"}
+            expected.update({os.path.basename(n): "ok" for n in REAL[:4]})
+            self.assertEqual({k: r["outcome"] for k, r in got.items()}, expected)
+            self.assertIn("not a readable STEP file", got["truncated.step"]["message"])
+            self.assertIn("SIGSEGV", got["crash.step"]["message"])
+            self.assertGreaterEqual(got["hang.step"]["seconds"], 8)
+            for name in ("teacup.bpt", "teapot.bpt", "teaspoon.bpt"):
+                self.assertEqual(got[name]["faces"], bpt_patches(f"{corpus}/{name}"))
+            for name in ("teacup.bpt", "pr1ct.stp"):
+                ref = direct_validate(f"{corpus}/{name}", 2)
+                self.assertEqual(got[name]["triangles"], ref["triangles"])
+                self.assertEqual(bool(got[name]["certified"]), ref["certified"])
+                if ref["certified"]:
+                    self.assertEqual(got[name]["hausdorff_upper"], ref["hausdorff"]["upper"])
+                else:
+                    self.assertIsNone(got[name]["hausdorff_upper"])
+            self.assertEqual(json.loads(got["teacup.bpt"]["parameters"]), {"command": "validate", "level": 2})
+            with open(f"{tmp}/out/report.html") as f:
+                page = f.read()
+            self.assertEqual(page.count("data:image/png;base64,"), 3)
+            with open(f"{tmp}/out/summary.json") as f:
+                summary = json.load(f)
+            self.assertEqual(summary["outcomes"], {"ok": 4, "bad_input": 1, "crashed": 1, "timeout": 1,
+                                                   "out_of_memory": 1})
+
+            again = batch(args, env=fault)  # resume: nothing new to do, the database unchanged
+            self.assertEqual(again.returncode, 0, again.stderr)
+            self.assertIn("0 processed now, 8 already done", again.stdout)
+            self.assertEqual(rows(f"{tmp}/out"), got)
+
+    def test_work_estimated_above_the_memory_cap_is_out_of_memory(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            corpus = make_corpus(f"{tmp}/corpus", ["teapot.bpt"])  # level 9: about 2.1 GiB of triangles
+            run = batch([corpus, "--out", f"{tmp}/out", "--level", "9", "--workers", "1", "--memory", "1"])
+            self.assertEqual(run.returncode, 0, run.stderr)
+            got = rows(f"{tmp}/out")["teapot.bpt"]
+            self.assertEqual(got["outcome"], "out_of_memory")
+            self.assertIn("more than --max-memory 1", got["message"])
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_rows(out, count, process, limit=120):
+    """Waits until results.sqlite has at least `count` rows (False if the process ends or time runs out)."""
+    end = time.monotonic() + limit
+    while time.monotonic() < end and process.poll() is None:
+        try:
+            if len(rows(out)) >= count:
+                return True
+        except sqlite3.Error:
+            pass
+        time.sleep(0.2)
+    return False
+
+
+def stable(table):
+    """The rows without what legitimately changes between runs (timings, finish time, the path's folder)."""
+    drop = {"seconds", "finished_at", "path"}
+    return {k: {c: v for c, v in r.items() if c not in drop} for k, r in table.items()}
+
+
+class Interruptions(unittest.TestCase):
+    DELAY = {"SAGITTA_BATCH_TEST_FAULT": ";".join(f"delay:{os.path.basename(n)}" for n in REAL)}
+
+    def test_killed_worker_every_file_recorded_once(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            corpus = make_corpus(f"{tmp}/corpus", REAL)
+            address = f"tcp://127.0.0.1:{free_port()}"
+            env = dict(os.environ, **self.DELAY)
+            scheduler = subprocess.Popen(["dask", "scheduler", "--host", "127.0.0.1", "--port", address.split(":")[-1],
+                                          "--no-dashboard"], env=env, stderr=subprocess.DEVNULL)
+            workers = [subprocess.Popen(["dask", "worker", address, "--nthreads", "1", "--no-nanny",
+                                         "--no-dashboard"], env=env, stderr=subprocess.DEVNULL) for _ in range(2)]
+            try:
+                client = subprocess.Popen([SAGITTA, "batch", corpus, "--out", f"{tmp}/out", "--level", "1",
+                                           "--scheduler", address], env=env, stdout=subprocess.PIPE,
+                                          stderr=subprocess.PIPE, text=True)
+                self.assertTrue(wait_rows(f"{tmp}/out", 1, client))
+                workers[0].kill()  # mid-batch: the scheduler moves its task to the other worker
+                out, err = client.communicate(timeout=300)
+                self.assertEqual(client.returncode, 0, err)
+                got = rows(f"{tmp}/out")
+                self.assertEqual(sorted(got), sorted(os.path.basename(n) for n in REAL))
+                self.assertTrue(all(r["outcome"] == "ok" for r in got.values()), got)
+                with sqlite3.connect(f"{tmp}/out/results.sqlite") as db:
+                    self.assertEqual(db.execute("SELECT count(*) FROM results").fetchone()[0], len(REAL))
+            finally:
+                for p in workers + [scheduler]:
+                    p.kill()
+                    p.wait()
+
+    def test_killed_client_resumes_to_the_uninterrupted_result(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            corpus = make_corpus(f"{tmp}/corpus", REAL)
+            args = ["--level", "1", "--workers", "2"]
+            whole = batch([corpus, "--out", f"{tmp}/whole", *args], env=self.DELAY)
+            self.assertEqual(whole.returncode, 0, whole.stderr)
+            client = subprocess.Popen([SAGITTA, "batch", corpus, "--out", f"{tmp}/cut", *args],
+                                      env=dict(os.environ, **self.DELAY), start_new_session=True,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            self.assertTrue(wait_rows(f"{tmp}/cut", 2, client))
+            os.killpg(client.pid, signal.SIGKILL)  # the client and its local cluster, mid-batch
+            client.wait()
+            before = len(rows(f"{tmp}/cut"))
+            self.assertLess(before, len(REAL))
+            resumed = batch([corpus, "--out", f"{tmp}/cut", *args], env=self.DELAY)
+            self.assertEqual(resumed.returncode, 0, resumed.stderr)
+            self.assertIn(f"{len(REAL) - before} processed now, {before} already done", resumed.stdout)
+            self.assertEqual(stable(rows(f"{tmp}/cut")), stable(rows(f"{tmp}/whole")))
+
+
+if __name__ == "__main__":
+    unittest.main()
