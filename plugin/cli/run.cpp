@@ -98,8 +98,8 @@ void run_part_job(const RunOptions& o) {
   nlohmann::json summary;
   summary["input"] = o.input;
   summary["model"] = std::filesystem::path(o.input).filename().string();
-  std::cout << "sagitta run: " << o.input << " (whole CAD part)\n[1/3] uniform and esc, checked per solid, certified "
-            << "where the certificate applies:\n"
+  std::cout << "sagitta run: " << o.input << " (whole CAD part)\n[1/3] uniform and esc, checked per solid, with "
+            << "the distance certificate where it applies:\n"
             << std::flush;
   SchemeSpec uniform;
   uniform.level = o.level;
