@@ -376,7 +376,9 @@ void run_report(const ReportCliOptions& o) {
 Command register_report(CLI::App& app) {
   auto o = std::make_shared<ReportCliOptions>();
   CLI::App* cmd = app.add_subcommand("report", "Certified error against triangles and time for every scheme: report.json + report.html");
-  cmd->add_option("inputs", o->inputs, "Patch files (.bpt, .rib) or 'default'; none: the built-in model");
+  cmd->add_option("inputs", o->inputs,
+                  "Patch files (.bpt, .rib) or 'default'; none: the built-in model; whole CAD parts (.step, .iges, "
+                  ".brep) are swept over uniform levels 1-4 by the part mesher");
   cmd->add_option("--out", o->out_dir, "Output folder for report.json, report.html and the plots")->required();
   cmd->add_option("--target-error", o->target_error, "Reference error for the verdicts (default: 1e-3 of each model's box diagonal)");
   cmd->add_flag("--no-occt", o->no_occt, "Leave out OCCT BRepMesh (the peer)");

@@ -110,5 +110,13 @@ if [[ -f $pr1ct ]]; then
   [[ $(field "$tmp/rep/report.json" "all(r['certified'] == (r['faces_certified'] == r['faces']) for r in $m['levels'])") == True ]] \
     || fail "report pr1ct: certified does not match the faces certified"
   [[ $(grep -o '<tr><td>[0-9]</td>' "$tmp/rep/report.html" | wc -l) == 4 ]] || fail "report pr1ct: not 4 level rows in the HTML"
+  # A part among patch models: each in the order given, the patch model swept as before.
+  "$SAGITTA" report "$pr1ct" default --no-occt --out "$tmp/mix" >/dev/null || fail "report pr1ct default: exit $?"
+  [[ $(field "$tmp/mix/report.json" "[(m.get('kind'), m['name']) for m in d['models']]") == "[('part', 'pr1ct.stp'), (None, 'default')]" ]] \
+    || fail "report pr1ct default: models $(field "$tmp/mix/report.json" "[m['name'] for m in d['models']]")"
+  [[ $(field "$tmp/mix/report.json" "len(d['models'][1]['points']) > 0 and 'uniform' in d['models'][1]['schemes']") == True ]] \
+    || fail "report pr1ct default: the patch model's sweep is missing"
+  grep -q 'pr1ct.stp &mdash; whole CAD part' "$tmp/mix/report.html" && grep -q '<h2>default &mdash;' "$tmp/mix/report.html" \
+    || fail "report pr1ct default: a section is missing from the HTML"
 fi
 echo "part_run_cli: all checks passed"

@@ -99,8 +99,11 @@ struct PartRun {
 };
 
 // Meshes the CAD file with the scheme (mesh_part_file), validates it (CGAL verdicts only when
-// `cgal`; never the self-intersection count) and certifies it (certify_part).
-PartRun run_part(const std::string& path, const SchemeSpec& scheme, bool cgal, const CertifyOptions& certify = {});
+// `cgal`; never the self-intersection count) and certifies it (certify_part). With timing_runs > 1
+// the part is meshed that many times (once when over 100,000 triangles) and part.seconds is the
+// fastest (the first run pays for thread start-up); the meshes are identical (deterministic).
+PartRun run_part(const std::string& path, const SchemeSpec& scheme, bool cgal, const CertifyOptions& certify = {},
+                 int timing_runs = 1);
 
 // One object per face of the part (every face, in face order): face, surface, trimmed, solid,
 // status, triangles, certified, and either upper (the certified bound, only on a certified face) or
@@ -118,12 +121,13 @@ std::string part_certificate_headline(const PartRun& run);
 
 // The trade report's entry for a part: kind "part", name, input, faces, faces_trimmed, solids,
 // closed_solids, scheme "uniform", levels (one object per level run: level, triangles, vertices,
-// seconds, faces_tessellated, faces, closed_solids, closed_solid_meshes, watertight,
-// faces_certified, certified, certified_hausdorff (the interval when every face is certified, else
-// null) and not_certified_reason), skipped (levels left out, with why) and meshes (empty; `sagitta
-// run` adds its meshes' part_run_json). A level is left out once the previous one has more than a
-// quarter of kMaxSweepTriangles triangles (a level has about 4 times the triangles of the one before).
-// progress (may be empty) is called before each level: (done, total, what).
+// seconds (the fastest of up to three runs), faces_tessellated, faces, closed_solids,
+// closed_solid_meshes, watertight, faces_certified, certified, certified_hausdorff (the interval when
+// every face is certified, else null) and not_certified_reason), skipped (levels left out, with
+// why) and meshes (empty; `sagitta run` adds its meshes' part_run_json). A level is left out once
+// the previous one has more than a quarter of kMaxSweepTriangles triangles (a level has about 4
+// times the triangles of the one before). progress (may be empty) is called before each level:
+// (done, total, what).
 nlohmann::json part_report_entry(const std::string& path, const std::string& name, const std::vector<int>& levels,
                                  const std::function<void(int, int, const std::string&)>& progress);
 
