@@ -115,6 +115,101 @@ std::string number_cell(const nlohmann::json& x, int digits = 4) {
   return x.is_null() ? "not certified" : format_number(x.get<double>(), digits);
 }
 
+bool is_part_entry(const nlohmann::json& m) { return m.value("kind", "") == "part"; }
+
+// The volume cells of a solid: mesh, OCCT and relative error (closed, valid B-rep solids only).
+std::string volume_cells(const nlohmann::json& validation, const nlohmann::json& check) {
+  for (const nlohmann::json& v : validation["volumes"]) {
+    if (v["solid"] != check["solid"]) continue;
+    return "<td>" +
+           (v["mesh_volume"].is_null() ? std::string("mesh open") : format_number(v["mesh_volume"].get<double>(), 6)) +
+           "</td><td>" + format_number(v["occt_volume"].get<double>(), 6) + "</td><td>" +
+           (v["relative_error"].is_null() ? std::string("-") : format_number(v["relative_error"].get<double>(), 3)) +
+           "</td>";
+  }
+  return "<td>-</td><td>-</td><td>-</td>";
+}
+
+// One part mesh of `sagitta run` (app::part_run_json): its per-solid and per-face tables. A face
+// shows a certified bound only when the certificate covers it; otherwise its reason.
+void write_part_mesh(std::ostringstream& h, const nlohmann::json& mesh) {
+  const nlohmann::json& c = mesh["certificate"];
+  h << "<h3>" << html_escape(mesh["scheme"].get<std::string>()) << " ("
+    << html_escape(mesh["setting"].get<std::string>()) << "): " << mesh["triangles"].get<uint64_t>() << " triangles, "
+    << (mesh["certified"].get<bool>()
+            ? "certified on every face, Hausdorff &le; " + format_number(c["hausdorff"]["upper"].get<double>())
+            : "not certified (" + std::to_string(c["faces_certified"].get<int>()) + " of " +
+                  std::to_string(mesh["faces"].get<size_t>()) + " faces)")
+    << "</h3>\n<table><tr><th>solid</th><th>triangles</th><th class=\"l\">closed</th><th>open edges (model "
+       "boundary)</th>"
+       "<th>cracks</th><th>T-junctions</th><th>non-manifold</th><th>&chi;</th><th>mesh volume</th><th>OCCT volume</th>"
+       "<th>relative error</th></tr>\n";
+  for (const nlohmann::json& s : mesh["validation"]["solid_checks"]) {
+    const int solid = s["solid"].get<int>();
+    h << "<tr><td>" << (solid < 0 ? std::string("none") : std::to_string(solid)) << "</td><td>"
+      << s["triangles"].get<uint64_t>() << "</td><td class=\"l\">" << (s["closed"].get<bool>() ? "closed" : "open")
+      << "</td><td>" << s["open_edges"].get<uint64_t>() << " (" << s["model_boundary_edges"].get<uint64_t>()
+      << ")</td><td>" << s["crack_edges"].get<uint64_t>() << "</td><td>" << s["t_junctions"].get<uint64_t>()
+      << "</td><td>" << s["non_manifold_edges"].get<uint64_t>() << "</td><td>"
+      << s["euler_characteristic"].get<int64_t>() << "</td>" << volume_cells(mesh["validation"], s) << "</tr>\n";
+  }
+  h << "</table>\n<table class=\"faces\"><tr><th class=\"l\">face</th><th class=\"l\">surface</th><th "
+       "class=\"l\">trimmed</th>"
+       "<th>solid</th><th>triangles</th><th class=\"l\">certificate</th></tr>\n";
+  for (const nlohmann::json& f : mesh["face_list"]) {
+    h << "<tr><td class=\"l\">" << html_escape(f["face"].get<std::string>()) << "</td><td class=\"l\">"
+      << html_escape(f["surface"].get<std::string>()) << "</td><td class=\"l\">"
+      << (f["trimmed"].get<bool>() ? "yes" : "no") << "</td><td>" << f["solid"].get<int>() << "</td><td>"
+      << f["triangles"].get<uint64_t>() << "</td><td class=\"l\">"
+      << (f["certified"].get<bool>() ? "certified, &le; " + format_number(f["upper"].get<double>())
+                                     : "not certified: " + html_escape(f["reason"].get<std::string>()))
+      << "</td></tr>\n";
+  }
+  h << "</table>\n";
+}
+
+// A whole CAD part's section (app::part_report_entry): the level sweep, and the meshes `sagitta
+// run` made. The Hausdorff column is filled only for levels where every face is certified.
+void write_part_section(std::ostringstream& h, const nlohmann::json& m, size_t k, const std::filesystem::path& dir,
+                        bool plots) {
+  h << "<h2>" << html_escape(m["name"].get<std::string>()) << " &mdash; whole CAD part: " << m["faces"].get<size_t>()
+    << " faces (" << m["faces_trimmed"].get<int>() << " trimmed), " << m["solids"].get<size_t>() << " solids ("
+    << m["closed_solids"].get<size_t>()
+    << " closed and valid)</h2>\n<p class=\"note\">Every face meshed into one mesh "
+       "watertight across faces (uniform levels). A level's Hausdorff bound is certified only when every face is; "
+       "trimmed faces are not certified yet (issue 15).</p>\n";
+  if (plots) {
+    h << "<div class=\"plots\">"
+      << image_tag(dir / ("model_" + std::to_string(k) + "_triangles.png"), "triangles against level")
+      << image_tag(dir / ("model_" + std::to_string(k) + "_time.png"), "tessellation time against level") << "</div>\n";
+  }
+  h << "<h3>Levels</h3>\n<table><tr><th>level</th><th>triangles</th><th>tessellation ms</th><th>faces tessellated</th>"
+       "<th>closed solids closed</th><th class=\"l\">watertight</th><th>certified faces</th>"
+       "<th class=\"l\">certified Hausdorff</th></tr>\n";
+  for (const nlohmann::json& r : m["levels"]) {
+    h << "<tr><td>" << r["level"].get<int>() << "</td><td>" << r["triangles"].get<uint64_t>() << "</td><td>"
+      << format_number(1e3 * r["seconds"].get<double>()) << "</td><td>" << r["faces_tessellated"].get<int>() << "/"
+      << r["faces"].get<size_t>() << "</td><td>" << r["closed_solid_meshes"].get<size_t>() << "/"
+      << r["closed_solids"].get<size_t>() << "</td><td class=\"l\">" << (r["watertight"].get<bool>() ? "yes" : "no")
+      << "</td><td>" << r["faces_certified"].get<int>() << "/" << r["faces"].get<size_t>() << "</td><td class=\"l\">";
+    if (r["certified_hausdorff"].is_null()) {
+      h << "not certified (" << html_escape(r["not_certified_reason"].get<std::string>()) << ")";
+    } else {
+      h << "[" << format_number(r["certified_hausdorff"]["lower"].get<double>()) << ", "
+        << format_number(r["certified_hausdorff"]["upper"].get<double>()) << "]";
+    }
+    h << "</td></tr>\n";
+  }
+  h << "</table>\n";
+  if (!m["skipped"].empty()) {
+    h << "<p class=\"note\">Left out: ";
+    for (size_t i = 0; i < m["skipped"].size(); ++i)
+      h << (i ? "; " : "") << html_escape(m["skipped"][i].get<std::string>());
+    h << "</p>\n";
+  }
+  for (const nlohmann::json& mesh : m["meshes"]) write_part_mesh(h, mesh);
+}
+
 }  // namespace
 
 std::string write_trade_report(const nlohmann::json& report, const std::string& out_dir) {
@@ -133,14 +228,26 @@ std::string write_trade_report(const nlohmann::json& report, const std::string& 
        ".plots img{width:640px;border:1px solid #ddd}.notice{background:#fde2e2;padding:8px;border:1px solid #e99}\n"
        ".note{color:#555;font-size:14px}\n</style></head><body>\n"
        "<h1>Sagitta: speed against accuracy</h1>\n<p class=\"note\">Error = "
-    << html_escape(report["error"].get<std::string>()) << ". Time = " << html_escape(report["time"].get<std::string>())
-    << ". Highlighted rows lie on the Pareto front of error against triangles (no other setting of any scheme has fewer "
-       "or equal triangles and a smaller error). Fits per scheme (Ceres, Huber loss on log error): certified_error = C &middot; "
-       "T<sup>p</sup>, for PN F + C &middot; T<sup>p</sup> (PN converges to the PN surface of its base mesh, not to the exact surface). "
-       "Settings whose surface-to-mesh bound could not be certified show &lsquo;not certified&rsquo; and are left out of fits and fronts.</p>\n";
+    << html_escape(report["error"].get<std::string>()) << ". Time = " << html_escape(report["time"].get<std::string>());
+  const bool parts_only = std::all_of(report["models"].begin(), report["models"].end(), is_part_entry);
+  if (parts_only)
+    h << ".</p>\n";
+  else
+    h << ". Highlighted rows lie on the Pareto front of error against triangles (no other setting of any scheme has "
+         "fewer "
+         "or equal triangles and a smaller error). Fits per scheme (Ceres, Huber loss on log error): certified_error = "
+         "C &middot; "
+         "T<sup>p</sup>, for PN F + C &middot; T<sup>p</sup> (PN converges to the PN surface of its base mesh, not to "
+         "the exact surface). "
+         "Settings whose surface-to-mesh bound could not be certified show &lsquo;not certified&rsquo; and are left "
+         "out of fits and fronts.</p>\n";
   if (!plot_problem.empty()) h << "<p class=\"notice\">" << html_escape(plot_problem) << "</p>\n";
   for (size_t k = 0; k < report["models"].size(); ++k) {
     const nlohmann::json& m = report["models"][k];
+    if (is_part_entry(m)) {
+      write_part_section(h, m, k, dir, plot_problem.empty());
+      continue;
+    }
     h << "<h2>" << html_escape(m["name"].get<std::string>()) << " &mdash; " << m["patches"].get<size_t>()
       << " patches, box diagonal " << format_number(m["box_diagonal"].get<double>()) << "</h2>\n";
     if (plot_problem.empty()) {
@@ -212,23 +319,52 @@ void run_report(const ReportCliOptions& o) {
     }
   }
   check_outputs(outputs, o.inputs);
-  for (const std::string& input : o.inputs) app::refuse_cad_part(input, "report");
+  // Whole CAD parts are swept by the part mesher (app::part_report_entry), the rest as patch models.
+  std::vector<bool> is_part;
   std::vector<NamedModel> models;
   for (const std::string& input : o.inputs) {
+    is_part.push_back(occt::is_cad_file(input) && occt::is_whole_part(occt::read_cad_file(input)));
+    if (is_part.back()) continue;
     models.push_back({input == "default" ? "default" : std::filesystem::path(input).filename().string(), load_model(input)});
   }
-  if (models.empty()) models.push_back({"default", load_model("")});
+  if (o.inputs.empty()) models.push_back({"default", load_model("")});
   ReportOptions options;
   options.occt = !o.no_occt;
   options.target_error = o.target_error;
   ProgressLine progress("sagitta report");
   options.progress = [&](int done, int total, const std::string& what) { progress.update(done, total, what); };
-  const nlohmann::json report = build_trade_report(models, options);
+  nlohmann::json report = build_trade_report(models, options);
+  if (std::find(is_part.begin(), is_part.end(), true) != is_part.end()) {
+    nlohmann::json merged = nlohmann::json::array();  // in the order of the inputs
+    size_t next_model = 0;
+    for (size_t k = 0; k < o.inputs.size(); ++k) {
+      if (!is_part[k]) {
+        merged.push_back(report["models"][next_model++]);
+        continue;
+      }
+      merged.push_back(app::part_report_entry(o.inputs[k], std::filesystem::path(o.inputs[k]).filename().string(),
+                                              kPartReportLevels, options.progress));
+    }
+    report["models"] = merged;
+  }
   progress.clear();
   const std::string html = write_trade_report(report, o.out_dir);
-  std::cout << "sagitta report: " << models.size() << " model(s) -> " << html << " and "
+  std::cout << "sagitta report: " << report["models"].size() << " model(s) -> " << html << " and "
             << (std::filesystem::path(o.out_dir) / "report.json").string() << "\n";
   for (const auto& m : report["models"]) {
+    if (is_part_entry(m)) {
+      for (const auto& r : m["levels"]) {
+        std::cout << "  " << m["name"].get<std::string>() << " level " << r["level"].get<int>() << ": "
+                  << r["triangles"].get<uint64_t>() << " triangles, closed solids closed "
+                  << r["closed_solid_meshes"].get<size_t>() << "/" << r["closed_solids"].get<size_t>() << ", "
+                  << (r["certified"].get<bool>()
+                          ? "certified Hausdorff <= " + format_number(r["certified_hausdorff"]["upper"].get<double>())
+                          : "not certified (" + std::to_string(r["faces_certified"].get<int>()) + " of " +
+                                std::to_string(r["faces"].get<size_t>()) + " faces)")
+                  << "\n";
+      }
+      continue;
+    }
     for (const auto& [scheme, s] : m["schemes"].items()) {
       std::cout << "  " << m["name"].get<std::string>() << " " << scheme << ": " << s["verdict"].get<std::string>() << "\n";
     }
@@ -240,7 +376,9 @@ void run_report(const ReportCliOptions& o) {
 Command register_report(CLI::App& app) {
   auto o = std::make_shared<ReportCliOptions>();
   CLI::App* cmd = app.add_subcommand("report", "Certified error against triangles and time for every scheme: report.json + report.html");
-  cmd->add_option("inputs", o->inputs, "Patch files (.bpt, .rib) or 'default'; none: the built-in model");
+  cmd->add_option("inputs", o->inputs,
+                  "Patch files (.bpt, .rib) or 'default'; none: the built-in model; whole CAD parts (.step, .iges, "
+                  ".brep) are swept over uniform levels 1-4 by the part mesher");
   cmd->add_option("--out", o->out_dir, "Output folder for report.json, report.html and the plots")->required();
   cmd->add_option("--target-error", o->target_error, "Reference error for the verdicts (default: 1e-3 of each model's box diagonal)");
   cmd->add_flag("--no-occt", o->no_occt, "Leave out OCCT BRepMesh (the peer)");

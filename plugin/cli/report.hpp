@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include <string>
+#include <vector>
 
 namespace sagitta::cli {
 
@@ -15,6 +16,9 @@ using app::format_number;
 using app::kMaxSweepTriangles;
 using app::NamedModel;
 using app::ReportOptions;
+
+// The uniform levels a whole CAD part is swept over (app::part_report_entry) by report and run.
+inline const std::vector<int> kPartReportLevels = {1, 2, 3, 4};
 
 // Writes DIR/report.json, the plots (DIR/*.png, by python3 + matplotlib running plot_report.py) and
 // DIR/report.html with the plots embedded. When python3 or matplotlib is missing the page has the

@@ -1,6 +1,7 @@
 // The main job: tessellate a model (the built-in default when none is given) with every scheme,
 // certify each mesh, fit ESC to a target error, and write the trade report into an output folder,
-// printing where each file is.
+// printing where each file is. A whole CAD part gets the part mesher's uniform and esc meshes, checked
+// per solid and certified where the certificate applies, and its level sweep; no fit (issue 15).
 #include "commands.hpp"
 #include "progress.hpp"
 #include "report.hpp"
@@ -11,10 +12,13 @@
 #include "sagitta/fit.hpp"
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/mesh_check.hpp"
+#include "sagitta/occt/cad.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <memory>
 
 namespace sagitta::cli {
@@ -58,6 +62,83 @@ nlohmann::json run_one_scheme(const Model& model, const Topology& topology, cons
   return stats;
 }
 
+// One scheme's part mesh: meshed, checked per solid (CGAL verdicts included), certified where the
+// certificate applies, written as OUT_DIR/<name>.ply; one summary line, with a certified number only
+// when every face is certified.
+nlohmann::json run_one_part_scheme(const std::string& input, const SchemeSpec& scheme, const std::string& out_dir,
+                                   const std::string& name, const std::string& setting) {
+  const app::PartRun run = app::run_part(input, scheme, true);
+  nlohmann::json stats = app::part_run_json(run);
+  stats["scheme"] = name;
+  stats["setting"] = setting;
+  stats["degenerate_triangles"] = run.part.mesh.degenerate_triangles;
+  Vec3 lo{std::numeric_limits<double>::infinity()}, hi{-std::numeric_limits<double>::infinity()};
+  for (const Vec3& p : run.part.mesh.positions) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+  }
+  stats["box_diagonal"] = run.part.mesh.positions.empty() ? 0.0 : Box{lo, hi}.diagonal();
+  const std::string path = (std::filesystem::path(out_dir) / (name + ".ply")).string();
+  io::write_mesh(run.part.mesh, path);
+  stats["output"] = path;
+  std::cout << "  " << name << ": " << run.part.faces_tessellated << "/" << run.part.faces.size()
+            << " faces tessellated, " << run.part.mesh.triangles.size() << " triangles in " << run.part.seconds
+            << " s, closed solids closed " << run.closed_solid_meshes() << "/" << run.validation.volumes.size() << ", "
+            << app::part_certificate_headline(run) << " -> " << path << "\n"
+            << std::flush;
+  return stats;
+}
+
+// `sagitta run` on a whole CAD part: uniform at --level and ESC, each checked and certified where it
+// applies; no fit (issue 15); the report is the part's level sweep plus both meshes' tables.
+void run_part_job(const RunOptions& o) {
+  std::filesystem::create_directories(o.out_dir);
+  const std::filesystem::path dir(o.out_dir);
+  nlohmann::json summary;
+  summary["input"] = o.input;
+  summary["model"] = std::filesystem::path(o.input).filename().string();
+  std::cout << "sagitta run: " << o.input << " (whole CAD part)\n[1/3] uniform and esc, checked per solid, with "
+            << "the distance certificate where it applies:\n"
+            << std::flush;
+  SchemeSpec uniform;
+  uniform.level = o.level;
+  summary["runs"].push_back(
+      run_one_part_scheme(o.input, uniform, o.out_dir, "uniform", "level " + std::to_string(o.level)));
+  // ESC's threshold: 1e-3 of the part's box diagonal, the box of the uniform mesh's vertices (points on the part).
+  const double diagonal = summary["runs"][0]["box_diagonal"].get<double>();
+  SchemeSpec esc;
+  esc.scheme = Scheme::kEsc;
+  esc.level = 3;
+  esc.threshold = 1e-3 * diagonal;
+  summary["box_diagonal"] = diagonal;
+  summary["runs"].push_back(
+      run_one_part_scheme(o.input, esc, o.out_dir, "esc", "L 3, rho " + app::format_number(esc.threshold)));
+  std::cout << "[2/3] fit: skipped (fit of whole parts: issue 15)\n" << std::flush;
+  summary["fit"] = {{"skipped", true}, {"reason", "fit of whole parts: issue 15"}};
+  if (o.report) {
+    std::cout << "[3/3] report (the part swept over uniform levels " << kPartReportLevels.front() << "-"
+              << kPartReportLevels.back() << "):\n"
+              << std::flush;
+    ProgressLine progress("sagitta run: report");
+    nlohmann::json entry = app::part_report_entry(
+        o.input, summary["model"].get<std::string>(), kPartReportLevels,
+        [&](int done, int total, const std::string& what) { progress.update(done, total, what); });
+    progress.clear();
+    entry["meshes"] = summary["runs"];
+    nlohmann::json report = {{"tool", "sagitta run"}, {"models", {entry}}, {"occt_version", occt::occt_version()}};
+    report["error"] = "certified Hausdorff upper bound between mesh and exact surface (model units)";
+    report["time"] = "tessellation wall time (seconds), certification excluded";
+    const std::string html = write_trade_report(report, o.out_dir);
+    summary["report"] = html;
+    std::cout << "  -> " << html << ", " << (dir / "report.json").string() << "\n";
+  }
+  const std::string summary_path = (dir / "run.json").string();
+  write_json(summary_path, summary);
+  std::cout << "  summary: " << summary_path << "\n";
+}
+
 void run_main_job(const RunOptions& o) {
   std::vector<NamedPath> outputs;
   for (const char* file : {"uniform.ply", "esc.ply", "pn.ply", "fit.ply", "fit.json", "report.json", "report.html",
@@ -65,7 +146,10 @@ void run_main_job(const RunOptions& o) {
     outputs.push_back({file, (std::filesystem::path(o.out_dir) / file).string()});
   }
   check_outputs(outputs, {o.input});
-  app::refuse_cad_part(o.input, "run");
+  if (occt::is_cad_file(o.input) && occt::is_whole_part(occt::read_cad_file(o.input))) {
+    run_part_job(o);
+    return;
+  }
   const Model model = load_model(o.input);
   const Topology topology = build_topology(model);
   std::filesystem::create_directories(o.out_dir);
@@ -142,7 +226,9 @@ Command register_run(CLI::App& app) {
   auto o = std::make_shared<RunOptions>();
   CLI::App* cmd = app.add_subcommand(
       "run", "The main job: every scheme tessellated and certified, an ESC fit to a target error, and the trade report");
-  cmd->add_option("input", o->input, "Patch file (.bpt, .rib); omit for the built-in default model");
+  cmd->add_option("input", o->input,
+                  "Patch file (.bpt, .rib); omit for the built-in default model; or a whole CAD part (.step, .iges, "
+                  ".brep: uniform and esc part meshes checked per solid, no fit yet (issue 15), the level sweep)");
   cmd->add_option("--out-dir", o->out_dir, "Folder for the meshes, fit and report")->capture_default_str();
   cmd->add_option("--level", o->level, "Uniform level of uniform.ply")->capture_default_str();
   cmd->add_option("--target-error", o->target_error, "Fit target (default: 1e-3 of the model's box diagonal)");

@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Plots for `sagitta report`: reads report.json, writes model_<k>_triangles.png and
-model_<k>_time.png (certified error against triangles / tessellation time, log-log) into OUT_DIR.
+model_<k>_time.png (certified error against triangles / tessellation time, log-log; for a whole CAD
+part, triangles / time against the level) into OUT_DIR.
 Usage: plot_report.py REPORT_JSON OUT_DIR"""
 import json
 import os
@@ -71,12 +72,46 @@ def plot(model, index, cost_key, out_dir):
     print(path)
 
 
+def plot_part(model, index, out_dir):
+    """A whole CAD part: triangles and tessellation time against the uniform level (model_<k>_triangles.png,
+    model_<k>_time.png); a level's certified Hausdorff bound is marked only when every face is certified."""
+    rows = model["levels"]
+    levels = [r["level"] for r in rows]
+    for key, ylabel, title, scale, name in [
+            ("triangles", "triangles (count, log scale)", "triangles against level", 1.0, "triangles"),
+            ("seconds", "tessellation time (ms, log scale)", "tessellation time against level", 1e3, "time")]:
+        fig, ax = plt.subplots(figsize=(8, 5.6), dpi=100)
+        ax.plot(levels, [max(r[key] * scale, 1e-3) for r in rows], marker="o", color=COLOURS["uniform"],
+                markersize=7, linewidth=1.5, label="part mesher, uniform levels")
+        certified_rows = [r for r in rows if r.get("certified_hausdorff")]
+        for r in certified_rows:
+            ax.annotate("certified <= %.3g" % r["certified_hausdorff"]["upper"], (r["level"], r[key] * scale),
+                        textcoords="offset points", xytext=(6, -12), fontsize=8.5)
+        ax.set_yscale("log")
+        ax.set_xticks(levels)
+        ax.set_xlabel("uniform level", fontsize=12)
+        ax.set_ylabel(ylabel, fontsize=11)
+        ax.set_title("%s (whole part): %s" % (model["name"], title), fontsize=13)
+        ax.grid(True, which="major", alpha=0.35)
+        ax.legend(fontsize=8.5, loc="best", framealpha=0.9)
+        fig.tight_layout()
+        path = os.path.join(out_dir, "model_%d_%s.png" % (index, name))
+        tmp = path + ".tmp.png"
+        fig.savefig(tmp)
+        plt.close(fig)
+        os.replace(tmp, path)
+        print(path)
+
+
 def main():
     if len(sys.argv) != 3:
         sys.exit("usage: plot_report.py REPORT_JSON OUT_DIR")
     with open(sys.argv[1]) as f:
         report = json.load(f)
     for index, model in enumerate(report.get("models", [])):
+        if model.get("kind") == "part":
+            plot_part(model, index, sys.argv[2])
+            continue
         plot(model, index, "triangles", sys.argv[2])
         plot(model, index, "seconds", sys.argv[2])
 

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -87,8 +88,51 @@ PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& o
 // hausdorff / mesh_to_surface / surface_to_mesh intervals, certified_triangles, certified_patches, seconds.
 nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCertificate& certificate);
 
+// A part meshed by one scheme, checked solid by solid and certified where today's certificate
+// applies: what `sagitta run` and `sagitta report` measure for each scheme or level.
+struct PartRun {
+  occt::PartMesh part;
+  PartValidation validation;
+  PartCertificate certificate;
+  // The closed and valid B-rep solids whose mesh is closed (of validation.volumes.size()).
+  size_t closed_solid_meshes() const;
+};
+
+// Meshes the CAD file with the scheme (mesh_part_file), validates it (CGAL verdicts only when
+// `cgal`; never the self-intersection count) and certifies it (certify_part). With timing_runs > 1
+// the part is meshed that many times (once when over 100,000 triangles) and part.seconds is the
+// fastest (the first run pays for thread start-up); the meshes are identical (deterministic).
+PartRun run_part(const std::string& path, const SchemeSpec& scheme, bool cgal, const CertifyOptions& certify = {},
+                 int timing_runs = 1);
+
+// One object per face of the part (every face, in face order): face, surface, trimmed, solid,
+// status, triangles, certified, and either upper (the certified bound, only on a certified face) or
+// reason (why the face is not certified, or why it was skipped).
+nlohmann::json part_faces_json(const occt::PartMesh& part, const PartCertificate& certificate);
+
+// part_json with face_list replaced by part_faces_json, plus validation (part_validation_json),
+// certificate (part_certificate_json), certified (every face), closed_solids, closed_solid_meshes,
+// watertight, crack_edges and t_junctions.
+nlohmann::json part_run_json(const PartRun& run);
+
+// "certified faces n/n, certified Hausdorff [lower, upper]" when every face is certified, else
+// "not certified (k of n faces)": no certified number unless the whole part is certified.
+std::string part_certificate_headline(const PartRun& run);
+
+// The trade report's entry for a part: kind "part", name, input, faces, faces_trimmed, solids,
+// closed_solids, scheme "uniform", levels (one object per level run: level, triangles, vertices,
+// seconds (the fastest of up to three runs), faces_tessellated, faces, closed_solids,
+// closed_solid_meshes, watertight, faces_certified, certified, certified_hausdorff (the interval when
+// every face is certified, else null) and not_certified_reason), skipped (levels left out, with
+// why) and meshes (empty; `sagitta run` adds its meshes' part_run_json). A level is left out once
+// the previous one has more than a quarter of kMaxSweepTriangles triangles (a level has about 4
+// times the triangles of the one before). progress (may be empty) is called before each level:
+// (done, total, what).
+nlohmann::json part_report_entry(const std::string& path, const std::string& name, const std::vector<int>& levels,
+                                 const std::function<void(int, int, const std::string&)>& progress);
+
 // Refuses (InputError, one line naming the file and issue 15) a CAD part given to a command that
-// has no whole-part path yet (fit, report, run). Does nothing for other inputs, loose untrimmed CAD
+// has no whole-part path yet (fit). Does nothing for other inputs, loose untrimmed CAD
 // faces included (occt::is_whole_part: they keep the patch path).
 void refuse_cad_part(const std::string& input, const std::string& command);
 
