@@ -6,16 +6,7 @@
 set -euo pipefail
 : "${SAGITTA:?}"
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*"; exit 1; }
-field() { python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))" "$1" "$2"; }
-ply_faces() { python3 -c "
-import sys
-for line in open(sys.argv[1], 'rb').read().split(b'end_header')[0].decode().splitlines():
-    if line.startswith('element face'): print(line.split()[2])" "$1"; }
-fact() { python3 -c "
-import json,sys
-d=[p for p in json.load(open(sys.argv[1]))['parts'] if p['file']==sys.argv[2]][0]; print(d[sys.argv[3]])" \
-  "$FIXTURES/facts.json" "$1" "$2"; }
+source "$(dirname "${BASH_SOURCE[0]}")/part_lib.sh"
 
 pr1ct="${SHARED_DATA:-/nonexistent}/cad/step/pr1ct.stp"
 plate="${FIXTURES:-/nonexistent}/plate_with_holes.brep"

@@ -4,6 +4,7 @@
 #include "sagitta/app/part.hpp"
 #include "sagitta/evaluate.hpp"
 
+#include "brute_force.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -17,28 +18,6 @@ namespace sagitta {
 namespace {
 
 using test::shared_data;
-
-// Distance from p to triangle abc (closest point by region, Ericson's "Real-Time Collision Detection").
-double point_triangle_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
-  if (d1 <= 0 && d2 <= 0) return glm::length(p - a);
-  const Vec3 bp = p - b;
-  const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
-  if (d3 >= 0 && d4 <= d3) return glm::length(p - b);
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return glm::length(p - (a + ab * (d1 / (d1 - d3))));
-  const Vec3 cp = p - c;
-  const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
-  if (d6 >= 0 && d5 <= d6) return glm::length(p - c);
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return glm::length(p - (a + ac * (d2 / (d2 - d6))));
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return glm::length(p - (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))));
-  const double denom = 1.0 / (va + vb + vc);
-  return glm::length(p - (a + ab * (vb * denom) + ac * (vc * denom)));
-}
 
 occt::PartMesh mesh_part(const std::string& path, int level) {
   SchemeSpec spec;
@@ -90,7 +69,7 @@ TEST(AppPart, CertificateBoundHoldsOnCoveredFaces) {
           double d = std::numeric_limits<double>::infinity();
           for (const size_t t : sub) {
             const Triangle& tri = part.mesh.triangles[t];
-            d = std::min(d, point_triangle_distance(x, part.mesh.positions[tri[0]], part.mesh.positions[tri[1]],
+            d = std::min(d, test::point_triangle_distance(x, part.mesh.positions[tri[0]], part.mesh.positions[tri[1]],
                                                     part.mesh.positions[tri[2]]));
           }
           worst = std::max(worst, d);

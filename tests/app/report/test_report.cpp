@@ -7,6 +7,7 @@
 #include "sagitta/evaluate.hpp"
 #include "sagitta/fixtures.hpp"
 #include "sagitta/uniform.hpp"
+#include "brute_force.hpp"
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
@@ -22,27 +23,6 @@
 namespace sagitta::cli {
 namespace {
 
-// Distance from p to triangle abc (closest point by regions; Ericson, Real-Time Collision Detection 5.1.5).
-double point_triangle_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
-  if (d1 <= 0 && d2 <= 0) return glm::length(p - a);
-  const Vec3 bp = p - b;
-  const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
-  if (d3 >= 0 && d4 <= d3) return glm::length(p - b);
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return glm::length(p - (a + ab * (d1 / (d1 - d3))));
-  const Vec3 cp = p - c;
-  const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
-  if (d6 >= 0 && d5 <= d6) return glm::length(p - c);
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return glm::length(p - (a + ac * (d2 / (d2 - d6))));
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) return glm::length(p - (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))));
-  const double denom = 1.0 / (va + vb + vc);
-  return glm::length(p - (a + ab * (vb * denom) + ac * (vc * denom)));
-}
-
 // Largest distance from surface samples (long-double de Casteljau) to the mesh, by brute force over
 // all triangles: a lower bound of the Hausdorff distance (up to rounding).
 double sampled_surface_to_mesh(const Model& model, const Tessellation& mesh, int samples) {
@@ -54,7 +34,7 @@ double sampled_surface_to_mesh(const Model& model, const Tessellation& mesh, int
         const Vec3 x{static_cast<double>(s[0]), static_cast<double>(s[1]), static_cast<double>(s[2])};
         double nearest = 1e300;
         for (const Triangle& t : mesh.triangles) {
-          nearest = std::min(nearest, point_triangle_distance(x, mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]));
+          nearest = std::min(nearest, test::point_triangle_distance(x, mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]));
         }
         worst = std::max(worst, nearest);
       }

@@ -5,6 +5,7 @@
 #include "sagitta/mesh_check.hpp"
 #include "sagitta/occt/cad.hpp"
 #include "sagitta/uniform.hpp"
+#include "brute_force.hpp"
 #include "test_support.hpp"
 
 #include <BRepTools.hxx>
@@ -229,24 +230,6 @@ TEST(OcctReader, BrepStringMatchesFile) {
   for (size_t p = 0; p < a.model.patches.size(); ++p) EXPECT_EQ(a.model.patches[p].points, b.model.patches[p].points);
 }
 
-// Distance from x to triangle (a, b, c), by projection onto the plane or else onto the three edges.
-double point_triangle_distance(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c) {
-  auto segment = [&](const Vec3& p, const Vec3& q) {
-    const Vec3 d = q - p;
-    const double t = std::clamp(glm::dot(x - p, d) / std::max(glm::dot(d, d), 1e-300), 0.0, 1.0);
-    return glm::length(x - (p + t * d));
-  };
-  const Vec3 n = glm::cross(b - a, c - a);
-  const double nn = glm::dot(n, n);
-  if (nn > 0.0) {
-    const Vec3 p = x - glm::dot(x - a, n) / nn * n;
-    const double wa = glm::dot(glm::cross(c - b, p - b), n), wb = glm::dot(glm::cross(a - c, p - c), n),
-                 wc = glm::dot(glm::cross(b - a, p - a), n);
-    if (wa >= 0 && wb >= 0 && wc >= 0) return glm::length(x - p);
-  }
-  return std::min({segment(a, b), segment(b, c), segment(c, a)});
-}
-
 TEST(OcctPeer, TeapotIntervalContainsBruteForceSamples) {
   const std::string path = shared_data("teapot.bpt");
   SAGITTA_REQUIRE_DATA(path);
@@ -271,7 +254,7 @@ TEST(OcctPeer, TeapotIntervalContainsBruteForceSamples) {
         const Vec3 x{static_cast<double>(s[0]), static_cast<double>(s[1]), static_cast<double>(s[2])};
         double best = INFINITY;
         for (const Triangle& t : r.mesh.triangles) {
-          best = std::min(best, point_triangle_distance(x, r.mesh.positions[t[0]], r.mesh.positions[t[1]], r.mesh.positions[t[2]]));
+          best = std::min(best, test::point_triangle_distance(x, r.mesh.positions[t[0]], r.mesh.positions[t[1]], r.mesh.positions[t[2]]));
         }
         worst = std::max(worst, best);
       }
