@@ -7,7 +7,8 @@ import sys
 def main(argv=None):
     parser = argparse.ArgumentParser(
         prog="sagitta batch",
-        description="Validate (or tessellate) every file of a CAD library, each in its own child process with a "
+        description="Validate (or tessellate, or fit to a target error) every file of a CAD library, each in its "
+        "own child process with a "
         "wall-time limit and a memory cap, on Dask.distributed; results in OUT/results.sqlite, OUT/summary.json, "
         "OUT/report.html. Re-running skips files already recorded with the same parameters.")
     parser.add_argument("inputs", nargs="+", help="files, folders (recursive: .step .stp .iges .igs .brep .brp "
