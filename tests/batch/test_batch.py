@@ -115,6 +115,77 @@ class PlantedFaults(unittest.TestCase):
             self.assertEqual(got["outcome"], "out_of_memory")
             self.assertIn("more than --max-memory 1", got["message"])
 
+def control_box_diagonal(path):
+    """The diagonal of a .bpt's control-point box: it contains the Bézier surface (convex hull property)."""
+    with open(path) as f:
+        lines = [line.split() for line in f if line.strip()]
+    points = [[float(t) for t in line] for line in lines[1:] if len(line) == 3]
+    lo, hi = [min(c) for c in zip(*points)], [max(c) for c in zip(*points)]
+    return sum((b - a) ** 2 for a, b in zip(lo, hi)) ** 0.5
+
+
+class TargetErrorAndPeer(unittest.TestCase):
+    def test_relative_target_fit_cad_refusal_and_occt_peer(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            corpus = make_corpus(f"{tmp}/corpus", ["teacup.bpt", "cad/step/pr1ct.stp"])
+            run = batch([corpus, "--out", f"{tmp}/out", "--target-error", "1e-2", "--relative", "--peer", "occt",
+                         "--deflection", "0.5", "--workers", "2", "--timeout", "200"])
+            self.assertEqual(run.returncode, 0, run.stderr)
+            got = rows(f"{tmp}/out")
+            cup, part = got["teacup.bpt"], got["pr1ct.stp"]
+            self.assertEqual(json.loads(cup["parameters"]), {"command": "fit", "target_error": 0.01, "relative": True,
+                                                             "peer": "occt", "deflection": 0.5})
+            # The diagonal is measured on surface points: inside the control-point box, and close to it.
+            box = control_box_diagonal(f"{corpus}/teacup.bpt")
+            self.assertTrue(0.5 * box < cup["model_diagonal"] <= box * (1 + 1e-9), (cup["model_diagonal"], box))
+            self.assertEqual(cup["outcome"], "ok", cup["message"])
+            self.assertAlmostEqual(cup["requested_error"], 0.01 * cup["model_diagonal"])
+            self.assertLessEqual(cup["hausdorff_lower"], cup["hausdorff_upper"])
+            self.assertLessEqual(cup["hausdorff_upper"], cup["requested_error"])
+            with tempfile.TemporaryDirectory() as ref_dir:  # the reference: sagitta fit run directly
+                subprocess.run([SAGITTA, "fit", f"{corpus}/teacup.bpt", "--target-error", repr(cup["requested_error"]),
+                                "--json", f"{ref_dir}/fit.json"], check=True, capture_output=True)
+                with open(f"{ref_dir}/fit.json") as f:
+                    ref = json.load(f)
+            self.assertEqual(cup["triangles"], ref["triangles"])
+            self.assertEqual(cup["hausdorff_upper"], ref["certified_error"])
+            self.assertEqual(json.loads(cup["fit_parameters"])["level"], ref["level"])
+            self.assertEqual(part["outcome"], "bad_input")  # sagitta fit refuses whole CAD parts (issue 15)
+            self.assertIn("issue 15", part["message"])
+            self.assertEqual(part["peer_outcome"], "ok", part["peer_message"])
+            self.assertGreater(part["peer_triangles"], 0)
+            with tempfile.TemporaryDirectory() as ref_dir:  # the reference: sagitta peer occt run directly
+                subprocess.run([SAGITTA, "peer", "occt", f"{corpus}/pr1ct.stp", "--deflection", "0.5", "--json",
+                                f"{ref_dir}/peer.json"], check=True, capture_output=True)
+                with open(f"{ref_dir}/peer.json") as f:
+                    ref = json.load(f)
+            self.assertEqual(part["peer_triangles"], ref["triangles"])
+            self.assertEqual(part["peer_hausdorff_lower"], ref["hausdorff"]["lower"])
+            with open(f"{tmp}/out/report.html") as f:
+                self.assertEqual(f.read().count("data:image/png;base64,"), 4)  # with certified vs requested
+
+    def test_database_without_the_new_columns_gets_them_at_open(self):
+        from sagitta_batch import store
+
+        with tempfile.TemporaryDirectory() as tmp:
+            path = f"{tmp}/old.sqlite"
+            old = store.SCHEMA  # the first release's table: no requested_error, peer_* ...
+            with sqlite3.connect(path) as db:
+                db.executescript(old)
+                before = {r[1] for r in db.execute("PRAGMA table_info(results)")}
+            self.assertFalse(before & {name for name, _ in store.ADDED})
+            s = store.Store(path)
+            s.insert({"sha256": "x", "parameters": "{}", "path": "p", "outcome": "ok", "message": "", "seconds": 1.0,
+                      "tool_version": "v", "finished_at": "t", "peer_triangles": 7})
+            self.assertEqual(s.rows()[0]["peer_triangles"], 7)
+            s.close()
+
+    def test_sagitta_batch_is_the_issues_name_for_the_api(self):
+        import sagitta.batch
+        import sagitta_batch
+
+        self.assertIs(sagitta.batch.run, sagitta_batch.run)
+
 
 def free_port():
     with socket.socket() as s:

@@ -1,4 +1,4 @@
-"""sagitta batch: validate or tessellate a library of CAD parts and patch models on Dask.distributed, one
+"""sagitta batch: validate, tessellate or fit a library of CAD parts and patch models on Dask.distributed, one
 isolated child process per file, results in SQLite (see docs/BATCH.md)."""
 from .engine import expand_inputs, run
 

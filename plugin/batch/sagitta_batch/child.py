@@ -45,14 +45,18 @@ def _fault_command(path):
     return None
 
 
-def sagitta_command(exe, path, params, json_out, memory=None):
-    """The sagitta command line for one file: `validate FILE --json OUT` or `tessellate FILE --stats OUT`;
-    with a memory cap, also `--max-memory GiB` so that sagitta refuses work estimated above it up front."""
+def sagitta_command(exe, path, params, json_out, memory=None, target=None):
+    """The sagitta command line for one file: `validate FILE --json OUT`, `tessellate FILE --stats OUT` or
+    `fit FILE --target-error TARGET --json OUT`; with a memory cap, also `--max-memory GiB` so that sagitta
+    refuses work estimated above it up front."""
     command = params.get("command", "validate")
-    cmd = [exe, command, path, "--json" if command == "validate" else "--stats", json_out]
+    if command == "fit":
+        cmd = [exe, "fit", path, "--target-error", repr(target), "--json", json_out]
+    else:
+        cmd = [exe, command, path, "--json" if command == "validate" else "--stats", json_out]
     if params.get("scheme"):
         cmd += ["--scheme", params["scheme"]]
-    if params.get("level") is not None:
+    if params.get("level") is not None and command != "fit":
         cmd += ["--level", str(params["level"])]
     if memory:
         cmd += ["--max-memory", str(memory)]
@@ -100,33 +104,104 @@ def classify(returncode, stderr, timed_out):
     return "ok", ""
 
 
+def _fit_metrics(report):
+    """The row's fields from `sagitta fit --json`: the chosen parameters, triangles, certified interval."""
+    keys = ("scheme", "level", "threshold", "segments", "base_level", "per_patch")
+    return {
+        "triangles": report.get("triangles"),
+        "certified": report.get("certified_error") is not None,
+        "hausdorff_lower": report.get("certified_lower_bound"),
+        "hausdorff_upper": report.get("certified_error"),
+        "fit_parameters": json.dumps({k: report[k] for k in keys if k in report}, sort_keys=True),
+    }
+
+
+def _run_child(cmd, timeout, memory):
+    """Runs one child in its own session; (outcome, message). A child past `timeout` has its group killed."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            errors="replace", start_new_session=True, preexec_fn=_child_setup(memory))
+    timed_out = False
+    try:
+        _, stderr = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        timed_out = True
+        os.killpg(proc.pid, signal.SIGKILL)
+        _, stderr = proc.communicate()
+    return classify(proc.returncode, stderr, timed_out)
+
+
+def _read_json(json_out, metrics, result):
+    """Adds metrics(report) to result, or turns result into bad_input when the report is unreadable."""
+    try:
+        with open(json_out) as f:
+            result.update(metrics(json.load(f)))
+    except (OSError, ValueError) as e:
+        result.update(outcome="bad_input", message=f"no readable JSON report: {e}")
+
+
+def model_diagonal(exe, path, tmp, timeout, memory):
+    """(outcome, message, diagonal): the diagonal of the bounding box of `sagitta tessellate FILE --level 1`'s
+    vertices. They lie on the surface, so this is at most the surface's box diagonal (a relative target
+    scaled by it is never looser than asked)."""
+    obj = os.path.join(tmp, "box.obj")
+    outcome, message = _run_child([exe, "tessellate", path, "--level", "1", "--out", obj], timeout, memory)
+    if outcome != "ok":
+        return outcome, message, None
+    lo, hi = [float("inf")] * 3, [float("-inf")] * 3
+    with open(obj) as f:
+        for line in f:
+            if line.startswith("v "):
+                xyz = [float(t) for t in line.split()[1:4]]
+                lo, hi = [min(a, b) for a, b in zip(lo, xyz)], [max(a, b) for a, b in zip(hi, xyz)]
+    if lo[0] > hi[0]:
+        return "bad_input", "no vertices to measure the model's box", None
+    return "ok", "", sum((b - a) ** 2 for a, b in zip(lo, hi)) ** 0.5
+
+
+def _peer(exe, path, params, tmp, timeout, memory):
+    """`sagitta peer occt FILE [--deflection D] --json OUT`: OCCT's triangles and certified interval (peer_*)."""
+    json_out = os.path.join(tmp, "peer.json")
+    cmd = [exe, "peer", "occt", path, "--json", json_out]
+    if params.get("deflection") is not None:
+        cmd += ["--deflection", repr(params["deflection"])]
+    if memory:
+        cmd[2:2] = ["--max-memory", str(memory)]
+    outcome, message = _run_child(cmd, timeout, memory)
+    peer = {"outcome": outcome, "message": message}
+    if outcome == "ok":
+        _read_json(json_out, lambda r: {"triangles": r.get("triangles"),
+                                        "hausdorff_lower": (r.get("hausdorff") or {}).get("lower"),
+                                        "hausdorff_upper": (r.get("hausdorff") or {}).get("upper")}, peer)
+    return {f"peer_{k}": v for k, v in peer.items()}
+
+
 def run_file(exe, path, params, timeout=None, memory=None):
-    """Processes one file in its own child process and returns its result dict (never raises for what the
-    child does: a crash, a hang, a memory blow-up or a bad file is the returned outcome)."""
+    """Processes one file in its own child process(es) and returns its result dict (never raises for what
+    a child does: a crash, a hang, a memory blow-up or a bad file is the returned outcome). With
+    params["command"] == "fit" the target is params["target_error"], times the model's box diagonal when
+    params["relative"]; with params["peer"] == "occt", OCCT's mesh is certified too (peer_* fields)."""
     start = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="sagitta-batch-") as tmp:
         json_out = os.path.join(tmp, "out.json")
-        cmd = sagitta_command(exe, path, params, json_out, memory)
-        fault = _fault_command(path)
-        if fault == "delay":
-            cmd = ["/bin/sh", "-c", 'sleep 1; exec "$@"', "sh"] + cmd
-        elif fault:
-            cmd = fault
-        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                                errors="replace", start_new_session=True, preexec_fn=_child_setup(memory))
-        timed_out = False
-        try:
-            _, stderr = proc.communicate(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            timed_out = True
-            os.killpg(proc.pid, signal.SIGKILL)
-            _, stderr = proc.communicate()
-        outcome, message = classify(proc.returncode, stderr, timed_out)
-        result = {"outcome": outcome, "message": message, "seconds": time.monotonic() - start}
+        target, outcome, message = params.get("target_error"), "ok", ""
+        result = {}
+        if params.get("command") == "fit" and params.get("relative"):
+            outcome, message, diagonal = model_diagonal(exe, path, tmp, timeout, memory)
+            result["model_diagonal"] = diagonal
+            target = target * diagonal if diagonal else None
+        result["requested_error"] = target
         if outcome == "ok":
-            try:
-                with open(json_out) as f:
-                    result.update(_metrics(json.load(f)))
-            except (OSError, ValueError) as e:
-                result.update(outcome="bad_input", message=f"no readable JSON report: {e}")
+            cmd = sagitta_command(exe, path, params, json_out, memory, target)
+            fault = _fault_command(path)
+            if fault == "delay":
+                cmd = ["/bin/sh", "-c", 'sleep 1; exec "$@"', "sh"] + cmd
+            elif fault:
+                cmd = fault
+            outcome, message = _run_child(cmd, timeout, memory)
+        result.update(outcome=outcome, message=message)
+        if outcome == "ok":
+            _read_json(json_out, _fit_metrics if params.get("command") == "fit" else _metrics, result)
+        if params.get("peer") == "occt":
+            result.update(_peer(exe, path, params, tmp, timeout, memory))
+        result["seconds"] = time.monotonic() - start
     return result

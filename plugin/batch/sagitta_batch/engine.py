@@ -102,15 +102,35 @@ def _pending(files, params, store):
     return todo
 
 
+def batch_parameters(scheme, level, command, target_error, relative, peer, deflection):
+    """The parameter set (the row key's `parameters`): every option that changes a file's result."""
+    if target_error is not None:
+        if target_error <= 0:
+            raise ValueError("--target-error must be positive")
+        params = {"command": "fit", "scheme": scheme, "target_error": target_error, "relative": relative or None}
+    elif relative:
+        raise ValueError("--relative needs --target-error")
+    else:
+        params = {"command": command, "scheme": scheme, "level": level}
+    if peer not in (None, "occt"):
+        raise ValueError(f"unknown peer {peer!r} (occt)")
+    if deflection is not None and peer is None:
+        raise ValueError("--deflection needs --peer occt")
+    params.update(peer=peer, deflection=deflection)
+    return {k: v for k, v in params.items() if v is not None}
+
+
 def run(inputs, out, scheme=None, level=2, command="validate", workers=None, scheduler=None, timeout=600.0,
-        memory=None, quiet=False):
+        memory=None, quiet=False, target_error=None, relative=False, peer=None, deflection=None):
     """Runs the batch and returns the summary dict (also written to OUT/summary.json, with OUT/report.html).
-    Files already in OUT/results.sqlite with the same sha256 and parameters are skipped."""
+    Files already in OUT/results.sqlite with the same sha256 and parameters are skipped. With target_error,
+    each file runs `sagitta fit` instead (level and command ignored; relative: a fraction of the box
+    diagonal); with peer="occt", also `sagitta peer occt` (deflection: its --deflection)."""
+    params = batch_parameters(scheme, level, command, target_error, relative, peer, deflection)
     files = expand_inputs(inputs)
     os.makedirs(out, exist_ok=True)
     exe = find_sagitta()
     version = tool_version(exe)
-    params = {k: v for k, v in {"command": command, "scheme": scheme, "level": level}.items() if v is not None}
     store = Store(os.path.join(out, "results.sqlite"))
     todo = _pending(files, params, store)
     progress = Progress(len(todo), quiet)

@@ -40,7 +40,8 @@ def _png(fig):
 
 
 def _plots(summary, rows):
-    """Three figures as data URIs: outcomes, time per file against faces, certified Hausdorff interval per file."""
+    """Figures as data URIs: outcomes, time per file against faces, certified Hausdorff interval per file and,
+    for --target-error runs, certified error against requested."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -82,6 +83,22 @@ def _plots(summary, rows):
     ax.set_title("Certified error per file (fixed --scheme/--level: no error requested)")
     images.append(("Certified error per file", _png(fig)))
     plt.close(fig)
+
+    fitted = [r for r in rows if r.get("requested_error") and r["hausdorff_upper"] is not None]
+    if fitted:  # --target-error runs: every point should lie on or under the diagonal
+        fig, ax = plt.subplots(figsize=(5, 4))
+        ax.scatter([r["requested_error"] for r in fitted], [r["hausdorff_upper"] for r in fitted], s=14,
+                   label="certified upper bound")
+        span = [min(r["requested_error"] for r in fitted), max(r["requested_error"] for r in fitted)]
+        ax.plot(span, span, color="#888", lw=1, label="requested")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("requested error (absolute)")
+        ax.set_ylabel("certified error")
+        ax.legend(fontsize=7)
+        ax.set_title("Certified error vs requested (sagitta fit)")
+        images.append(("Certified error vs requested", _png(fig)))
+        plt.close(fig)
     return images
 
 
@@ -96,7 +113,8 @@ def write(out, summary, rows):
     except Exception as e:  # the table and summary still stand without the plots
         figures = f"<p>plots unavailable: {html.escape(str(e))}</p>"
     head = ("path", "outcome", "message", "faces", "triangles", "certified", "hausdorff_lower", "hausdorff_upper",
-            "worst_face_upper", "seconds")
+            "worst_face_upper", "requested_error", "fit_parameters", "peer_outcome", "peer_triangles",
+            "peer_hausdorff_upper", "seconds")
     table = "".join("<tr>" + "".join(f"<td>{html.escape('' if r[c] is None else str(r[c]))}</td>" for c in head)
                     + "</tr>" for r in rows)
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>sagitta batch report</title>

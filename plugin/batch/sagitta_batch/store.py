@@ -3,9 +3,19 @@ import hashlib
 import json
 import sqlite3
 
+# Columns added after the first release: nullable, and added by ALTER TABLE to a database that lacks them.
+ADDED = (("requested_error", "REAL"),         # --target-error runs: the absolute target given to sagitta fit
+         ("model_diagonal", "REAL"),          # --relative: the box diagonal the target was scaled by
+         ("fit_parameters", "TEXT"),          # JSON: scheme, level, threshold... chosen by sagitta fit
+         ("peer_outcome", "TEXT"),            # --peer occt: the outcome of sagitta peer occt
+         ("peer_message", "TEXT"),
+         ("peer_triangles", "INTEGER"),       # OCCT's triangles
+         ("peer_hausdorff_lower", "REAL"),    # OCCT mesh's certified interval (upper NULL when not certified)
+         ("peer_hausdorff_upper", "REAL"))
+
 COLUMNS = ("sha256", "parameters", "path", "outcome", "message", "faces", "faces_tessellated", "triangles",
            "certified", "hausdorff_lower", "hausdorff_upper", "worst_face", "worst_face_upper", "seconds",
-           "tool_version", "finished_at")
+           "tool_version", "finished_at") + tuple(name for name, _ in ADDED)
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS results (
@@ -49,6 +59,11 @@ class Store:
     def __init__(self, path):
         self.db = sqlite3.connect(path)
         self.db.executescript(SCHEMA)
+        have = {r[1] for r in self.db.execute("PRAGMA table_info(results)")}
+        with self.db:
+            for name, kind in ADDED:
+                if name not in have:
+                    self.db.execute(f"ALTER TABLE results ADD COLUMN {name} {kind}")
 
     def done_keys(self):
         return set(self.db.execute("SELECT sha256, parameters FROM results"))
