@@ -284,7 +284,9 @@ TEST(Part, UntrimmedFacesKeepTheSchemeTriangles) {
       }
       const std::vector<SolidCheck> checks = check_solids(part.mesh, part.triangle_solid, part.boundary_edges);
       for (const SolidCheck& c : checks) {
-        if (c.solid >= 0) EXPECT_TRUE(c.closed) << name << " level " << level;
+        if (c.solid >= 0) {
+          EXPECT_TRUE(c.closed) << name << " level " << level;
+        }
         EXPECT_EQ(c.crack_edges, 0u) << name;
         EXPECT_EQ(c.t_junctions, 0u) << name;
       }
