@@ -941,6 +941,70 @@ bool try_keep_whole_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, co
   return true;
 }
 
+// The CDT of the face's points and constraints (the first segments.size() are the loop chords).
+// An "ear": a CDT triangle whose three corners are samples of one edge. Both faces of a tangent edge
+// (a fillet meeting a plane) may make the same ear, and their triangles would then coincide; a point
+// at the ear's centre (on the surface) splits it, and the CDT is made again (at most 4 times).
+detail::CdtResult cdt_without_ears(PartBuilder& b, const FaceGeometry& g,
+                                   const std::vector<std::array<uint32_t, 2>>& segments,
+                                   const std::vector<int>& segment_edge,
+                                   const std::vector<std::array<uint32_t, 2>>& constraints, std::vector<Vec2>& points,
+                                   std::vector<uint32_t>& vertex) {
+  const Vec2 scale(g.su, g.sv);
+  detail::CdtResult cdt;
+  for (int round = 0;; ++round) {
+    cdt = detail::constrained_delaunay(points, constraints, segments.size());
+    if (round == 4) break;
+    std::vector<std::vector<int>> point_edges(cdt.points.size());
+    for (size_t c = 0; c < segments.size(); ++c) {
+      for (uint32_t end : segments[c]) point_edges[cdt.merged[end]].push_back(segment_edge[c]);
+    }
+    const auto has = [&](uint32_t p, int e) {
+      return std::find(point_edges[p].begin(), point_edges[p].end(), e) != point_edges[p].end();
+    };
+    const size_t before = points.size();
+    for (size_t c = 0; c < cdt.triangles.size(); ++c) {
+      if (!cdt.inside[c]) continue;
+      const auto& t = cdt.triangles[c];
+      for (int e : point_edges[t[0]]) {
+        if (!has(t[1], e) || !has(t[2], e)) continue;
+        const Vec2 centre = (cdt.points[t[0]] + cdt.points[t[1]] + cdt.points[t[2]]) / 3.0;
+        points.push_back(centre);
+        vertex.push_back(b.add_vertex(eval_uv(g, centre / scale)));
+        break;
+      }
+    }
+    if (points.size() == before) break;
+  }
+  return cdt;
+}
+
+// A point CGAL made (index >= inputs) lies where two loop chords cross; it would be a T-junction.
+// The longest chord through it is split at its middle (b.crossing) and the part is tessellated again
+// (mesh_shape). Near a vertex where two curves are tangent (concentric-like arcs) the outer curve's
+// first chord must become shorter than the inner's, so only one of the two is split each time.
+void record_crossings(PartBuilder& b, const std::vector<LoopPoint>& loop,
+                      const std::vector<std::array<uint32_t, 2>>& segments, const std::vector<int>& segment_edge,
+                      const detail::CdtResult& cdt, size_t inputs) {
+  for (size_t k = inputs; k < cdt.points.size(); ++k) {
+    const Vec2 q = cdt.points[k];
+    double longest = -1.0;
+    size_t split = 0;
+    for (size_t c = 0; c < segments.size(); ++c) {
+      const Vec2 a = loop[segments[c][0]].q, d = loop[segments[c][1]].q;
+      const Vec2 ad = d - a;
+      const double t = clamp(glm::dot(q - a, ad) / std::max(glm::dot(ad, ad), 1e-300), 0.0, 1.0);
+      if (glm::length(q - (a + t * ad)) <= 1e-9 * (glm::length(ad) + glm::length(q)) && glm::length(ad) > longest) {
+        longest = glm::length(ad);
+        split = c;
+      }
+    }
+    if (longest > 0.0) {
+      b.crossing[segment_edge[split]].push_back(0.5 * (loop[segments[split][0]].t + loop[segments[split][1]].t));
+    }
+  }
+}
+
 // Tessellates one face into the part; false (pf.reason set) when it cannot.
 bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
   std::vector<LoopPoint> loop;
@@ -991,56 +1055,9 @@ bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
     kept_keys.insert(key);
   }
   add_free_points(b, g, grid, sm, pf, points, vertex);
-  // An "ear": a CDT triangle whose three corners are samples of one edge. Both faces of a tangent
-  // edge (a fillet meeting a plane) may make the same ear, and their triangles would then coincide;
-  // a point at the ear's centre (on the surface) splits it, and the CDT is made again.
-  detail::CdtResult cdt;
-  for (int round = 0;; ++round) {
-    cdt = detail::constrained_delaunay(points, constraints, segments.size());
-    if (round == 4) break;
-    std::vector<std::vector<int>> point_edges(cdt.points.size());
-    for (size_t c = 0; c < segments.size(); ++c) {
-      for (uint32_t end : segments[c]) point_edges[cdt.merged[end]].push_back(segment_edge[c]);
-    }
-    const auto has = [&](uint32_t p, int e) {
-      return std::find(point_edges[p].begin(), point_edges[p].end(), e) != point_edges[p].end();
-    };
-    const size_t before = points.size();
-    for (size_t c = 0; c < cdt.triangles.size(); ++c) {
-      if (!cdt.inside[c]) continue;
-      const auto& t = cdt.triangles[c];
-      for (int e : point_edges[t[0]]) {
-        if (!has(t[1], e) || !has(t[2], e)) continue;
-        const Vec2 centre = (cdt.points[t[0]] + cdt.points[t[1]] + cdt.points[t[2]]) / 3.0;
-        points.push_back(centre);
-        vertex.push_back(b.add_vertex(eval_uv(g, centre / scale)));
-        break;
-      }
-    }
-    if (points.size() == before) break;
-  }
+  const detail::CdtResult cdt = cdt_without_ears(b, g, segments, segment_edge, constraints, points, vertex);
   for (size_t k = points.size(); k < cdt.points.size(); ++k) vertex.push_back(b.add_vertex(eval_uv(g, cdt.points[k] / scale)));
-  // A point CGAL made lies where two loop chords cross; it would be a T-junction. The longest chord
-  // through it is split at its middle and the part is tessellated again (mesh_shape). Near a vertex
-  // where two curves are tangent (concentric-like arcs) the outer curve's first chord must become
-  // shorter than the inner's, so only one of the two is split each time.
-  for (size_t k = points.size(); k < cdt.points.size(); ++k) {
-    const Vec2 q = cdt.points[k];
-    double longest = -1.0;
-    size_t split = 0;
-    for (size_t c = 0; c < segments.size(); ++c) {
-      const Vec2 a = loop[segments[c][0]].q, d = loop[segments[c][1]].q;
-      const Vec2 ad = d - a;
-      const double t = clamp(glm::dot(q - a, ad) / std::max(glm::dot(ad, ad), 1e-300), 0.0, 1.0);
-      if (glm::length(q - (a + t * ad)) <= 1e-9 * (glm::length(ad) + glm::length(q)) && glm::length(ad) > longest) {
-        longest = glm::length(ad);
-        split = c;
-      }
-    }
-    if (longest > 0.0) {
-      b.crossing[segment_edge[split]].push_back(0.5 * (loop[segments[split][0]].t + loop[segments[split][1]].t));
-    }
-  }
+  record_crossings(b, loop, segments, segment_edge, cdt, points.size());
   // The scheme's kept triangles as the scheme made them, then the CDT's faces inside the loops
   // that are not kept triangles.
   for (size_t t = 0; t < m.triangles.size(); ++t) {
