@@ -5,6 +5,7 @@
 // `sagitta validate --json` print.
 #include "sagitta/app/common.hpp"
 #include "sagitta/app/json.hpp"
+#include "sagitta/app/part.hpp"
 #include "sagitta/app/validate.hpp"
 #include "sagitta/certify.hpp"
 #include "sagitta/fit.hpp"
@@ -441,18 +442,17 @@ py::array_t<T> array_of(const std::vector<T>& values) {
   return a;
 }
 
-// The part options from the keyword arguments: `segments` (uniform) replaces `level` when given;
-// esc takes `level` and `threshold`. The schemes check their parameters when the part is meshed.
+// The part options from the keyword arguments through app::part_options (as the CLI does):
+// `segments` (uniform) replaces `level` when given; esc takes `level` and `threshold`. The schemes
+// check their parameters when the part is meshed.
 occt::PartOptions part_options(const std::string& scheme, int level, std::optional<int> segments,
                                std::optional<double> threshold, double edge_tolerance) {
-  if (!(edge_tolerance >= 0.0) || !std::isfinite(edge_tolerance)) throw InputError("edge_tolerance must be >= 0");
-  occt::PartOptions options;
-  options.scheme.scheme = parse_scheme(scheme);
-  options.scheme.level = segments ? -1 : level;
-  options.scheme.segments = segments.value_or(-1);
-  options.scheme.threshold = threshold.value_or(0.0);
-  options.edge_tolerance = edge_tolerance;
-  return options;
+  SchemeSpec spec;
+  spec.scheme = parse_scheme(scheme);
+  spec.level = segments ? -1 : level;
+  spec.segments = segments.value_or(-1);
+  spec.threshold = threshold.value_or(0.0);
+  return app::part_options(spec, edge_tolerance);
 }
 
 // One solid's verdict as a dict (SolidCheck's fields; findings as dicts).
