@@ -486,27 +486,14 @@ EdgePlan plan_edge(const PartOptions& options, const ShapeIndex& x, const std::v
   double first = 0.0, last = 0.0;
   BRep_Tool::Range(edge, first, last);
   const std::vector<int> faces = faces_of_edge(x, edge);
-  const int segs = scheme_segments(options.scheme);
-  int n = 1;
-  for (int f : faces) {
-    if (!geometry[f].patches.empty()) n = std::max(n, static_cast<int>(std::ceil(grid_length(geometry[f], edge) * segs - 1e-9)));
-  }
   plan.degenerated = BRep_Tool::Degenerated(edge);
   bool seam = false;
   for (int f : faces) seam = seam || BRep_Tool::IsClosed(edge, geometry[f].face);
   plan.free = faces.size() == 1 && !seam && !plan.degenerated;
-  const bool closed = !v_first.IsNull() && v_first.IsSame(v_last);
   std::unique_ptr<BRepAdaptor_Curve> curve;
-  if (!plan.degenerated) {
-    curve = std::make_unique<BRepAdaptor_Curve>(edge);
-    const double turn = turning(*curve, first, last);
-    n = std::max(n, static_cast<int>(std::ceil(segs * turn / (kPi / 2) - 1e-9)));
-    if (turn > 1e-3) n = std::max(n, 2);
-  }
-  if (closed) n = std::max(n, 3);
-  n = std::min(n, 1 << 16);
-  for (int k = 0; k <= n; ++k) plan.t.push_back(k == n ? last : first + (last - first) * k / n);
-  // The owner: the first untrimmed face using the edge.
+  if (!plan.degenerated) curve = std::make_unique<BRepAdaptor_Curve>(edge);
+  // The owner: the first untrimmed face using the edge; its scheme's side vertices are the samples.
+  bool owned = false;
   for (int f : faces) {
     const FaceGeometry& g = geometry[f];
     if (g.patches.empty() || g.report.status == "trimmed" || plan.degenerated) continue;
@@ -518,8 +505,25 @@ EdgePlan plan_edge(const PartOptions& options, const ShapeIndex& x, const std::v
       }
       plan.t.push_back(last);
       plan.owner_positions = std::move(samples);
+      owned = true;
     }
     break;
+  }
+  if (!owned) {  // the scheme's density on every face that uses the edge, and its turning
+    const int segs = scheme_segments(options.scheme);
+    int n = 1;
+    for (int f : faces) {
+      if (!geometry[f].patches.empty())
+        n = std::max(n, static_cast<int>(std::ceil(grid_length(geometry[f], edge) * segs - 1e-9)));
+    }
+    if (curve) {
+      const double turn = turning(*curve, first, last);
+      n = std::max(n, static_cast<int>(std::ceil(segs * turn / (kPi / 2) - 1e-9)));
+      if (turn > 1e-3) n = std::max(n, 2);
+    }
+    if (!v_first.IsNull() && v_first.IsSame(v_last)) n = std::max(n, 3);  // a closed edge
+    n = std::min(n, 1 << 16);
+    for (int k = 0; k <= n; ++k) plan.t.push_back(k == n ? last : first + (last - first) * k / n);
   }
   double tol = options.edge_tolerance;
   if (options.scheme.scheme == Scheme::kEsc && options.scheme.threshold > 0.0)
