@@ -155,12 +155,14 @@ void write_part_mesh(std::ostringstream& h, const nlohmann::json& mesh) {
   }
   h << "</table>\n<table class=\"faces\"><tr><th class=\"l\">face</th><th class=\"l\">surface</th><th "
        "class=\"l\">trimmed</th>"
-       "<th>solid</th><th>triangles</th><th class=\"l\">certificate</th></tr>\n";
+       "<th>solid</th><th>triangles</th><th class=\"l\">route</th><th>lower bound</th><th "
+       "class=\"l\">certificate</th></tr>\n";
   for (const nlohmann::json& f : mesh["face_list"]) {
     h << "<tr><td class=\"l\">" << html_escape(f["face"].get<std::string>()) << "</td><td class=\"l\">"
       << html_escape(f["surface"].get<std::string>()) << "</td><td class=\"l\">"
       << (f["trimmed"].get<bool>() ? "yes" : "no") << "</td><td>" << f["solid"].get<int>() << "</td><td>"
-      << f["triangles"].get<uint64_t>() << "</td><td class=\"l\">"
+      << f["triangles"].get<uint64_t>() << "</td><td class=\"l\">" << html_escape(f.value("route", std::string()))
+      << "</td><td>" << format_number(f.value("lower", 0.0)) << "</td><td class=\"l\">"
       << (f["certified"].get<bool>() ? "certified, &le; " + format_number(f["upper"].get<double>())
                                      : "not certified: " + html_escape(f["reason"].get<std::string>()))
       << "</td></tr>\n";

@@ -121,7 +121,7 @@ nlohmann::json failed_part_requirements(const ValidateOptions& o, const occt::Pa
     doc["max_error"] = o.max_error;
     if (!cert.all_certified) {
       failed.push_back("max-error: not certified (" + std::to_string(part.faces.size() - cert.faces_certified) +
-                       " faces not covered by the certificate)");
+                       " faces not certified)");
     } else if (!(cert.distance.hausdorff.upper <= o.max_error)) {
       failed.push_back(cert.distance.hausdorff.lower > o.max_error
                            ? "max-error: the distance exceeds it (lower bound above)"
@@ -172,12 +172,8 @@ void print_part_validation(const occt::PartMesh& part, const app::PartValidation
     return;
   }
   std::cout << "not certified: " << cert.faces_certified << " of " << part.faces.size() << " faces certified";
-  if (cert.faces_certified > 0) {
-    std::cout << " (hausdorff on them in [" << cert.distance.hausdorff.lower << ", " << cert.distance.hausdorff.upper
-              << "])";
-  }
-  if (part.faces_trimmed > 0) std::cout << "; " << part.faces_trimmed << " trimmed faces (their certificate: issue 15)";
-  std::cout << "; reasons in --json\n";
+  if (cert.faces_certified > 0) std::cout << " (the certified faces' largest upper bound " << cert.certified_faces_upper << ")";
+  std::cout << "; largest lower bound over all faces " << cert.distance.hausdorff.lower << "; reasons in --json\n";
 }
 
 // A CAD part: the whole-part mesh, its per-solid checks and the certificate where it applies.
@@ -194,7 +190,7 @@ int run_validate_part(const ValidateOptions& o) {
   certify.max_depth = o.max_depth;
   app::PartCertificate cert;
   {
-    const ProgressTicker progress("sagitta validate:", "certifying the untrimmed faces of " + o.input);
+    const ProgressTicker progress("sagitta validate:", "certifying every face of " + o.input);
     cert = app::certify_part(part, certify);
   }
   doc["validation"] = app::part_validation_json(check);

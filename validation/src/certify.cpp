@@ -873,7 +873,10 @@ void certify_lowers(const Model& model, const Tessellation& mesh, const std::vec
     const BezierPatch& patch = model.patches[mesh.triangle_patch[t]];
     const Vec3 p = eval(patch, results[t].s2m_uv);
     points[i] = p;
-    if (options.in_domain && !options.in_domain(mesh.triangle_patch[t], results[t].s2m_uv)) {
+    // No candidate was recorded (an exact triangle: every corner distance 0): s2m_uv is not a point
+    // of the triangle, and on a restricted domain not even of the surface.
+    if (!(results[t].s2m_est > 0.0) ||
+        (options.in_domain && !options.in_domain(mesh.triangle_patch[t], results[t].s2m_uv))) {
       low[i] = 0.0;  // not a point of the restricted surface: no witness
       return;
     }
@@ -1142,7 +1145,8 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
   const double estimate = *std::max_element(est.value.begin(), est.value.end());
   // Refinement target; the floor (1e-12 of the model's size, near the rounding term) stops exact
   // meshes (planar patches) from refining to the depth budget for nothing.
-  const double tau = std::max(options.target_ratio * estimate, 1e-12 * model_box(model).diagonal());
+  const double tau = std::max(options.target_ratio * estimate,
+                              std::max(1e-12, options.refine_floor) * model_box(model).diagonal());
   // Pass 2: refinement.
   const detail::MeshDistance mesh_distance(mesh);
   const Refinement rf{model, mesh, options, pd, patch_boxes, near, mesh_distance, tau};

@@ -37,7 +37,7 @@ nlohmann::json part_faces_json(const occt::PartMesh& part, const PartCertificate
     const FaceCertificate& c = certificate.faces[static_cast<size_t>(f.face_index)];
     nlohmann::json j = {{"face", f.name},          {"surface", f.surface_type}, {"trimmed", f.trimmed},
                         {"solid", f.solid},        {"status", f.status},        {"triangles", f.triangles},
-                        {"certified", c.certified}};
+                        {"certified", c.certified},  {"route", c.route},          {"lower", c.hausdorff.lower}};
     if (c.certified)
       j["upper"] = c.upper;
     else

@@ -13,6 +13,7 @@
 
 #include "occt_shape.hpp"
 #include "part_cdt.hpp"
+#include "part_chords.hpp"
 
 #include "sagitta/evaluate.hpp"
 
@@ -111,6 +112,9 @@ struct FaceGeometry {
   int nu = 0, nv = 0;             // patch grid
   double su = 1.0, sv = 1.0;      // scale of U and V in the CDT (mean |dS/dU|, |dS/dV|)
   double u_period = 0.0, v_period = 0.0;  // of the face's surface (0: not periodic)
+  // (U, V) = (u, v): B-spline and Bézier faces, and planes (whose conversion keeps the parameters,
+  // checked at 9 points); otherwise face_to_uv solves for (U, V).
+  bool identity_map = true;
   // The scheme's tessellation of the face's patches (made once per part) and each of its vertices'
   // (U, V) (exact patch-grid values on the patches' sides).
   Tessellation scheme;
@@ -241,6 +245,22 @@ void set_scale(FaceGeometry& g) {
   g.sv = n > 0 && std::isfinite(sv) && sv > 0.0 ? sv / n : 1.0;
 }
 
+// A converted surface whose (U, V) equal OCCT's (u, v) (a plane: its bilinear form keeps the
+// parameters), checked at 3 x 3 points of the patch range to 1e-12 of the range.
+bool keeps_parameters(const FaceGeometry& g) {
+  const std::vector<double>& ub = g.report.u_breaks;
+  const std::vector<double>& vb = g.report.v_breaks;
+  const double tol = 1e-12 * std::max(ub.back() - ub.front(), vb.back() - vb.front());
+  for (double s : {0.1, 0.5, 0.9}) {
+    for (double t : {0.1, 0.5, 0.9}) {
+      const double u = ub.front() + s * (ub.back() - ub.front()), v = vb.front() + t * (vb.back() - vb.front());
+      const Vec2 UV = face_to_uv(g, u, v);
+      if (!(std::abs(UV.x - u) <= tol && std::abs(UV.y - v) <= tol)) return false;
+    }
+  }
+  return true;
+}
+
 FaceGeometry face_geometry(const ShapeIndex& x, int f, const std::string& name, const CadOptions& options) {
   FaceGeometry g;
   g.face = TopoDS::Face(x.faces(f + 1));
@@ -270,6 +290,7 @@ FaceGeometry face_geometry(const ShapeIndex& x, int f, const std::string& name, 
       g.converted.Nullify();
   }
   set_scale(g);
+  g.identity_map = g.converted.IsNull() || keeps_parameters(g);
   return g;
 }
 
@@ -653,9 +674,42 @@ struct PoleLine {
   uint32_t vertex = 0;
 };
 
+// An edge's p-curve as the loop walk used it: OCCT's parameters [f, l] of the p-curve, the edge's
+// [first, last], whether they coincide, and the whole periods added to the curve's (u, v).
+struct RangeCurve {
+  Handle(Geom2d_Curve) pc;
+  double f = 0.0, l = 0.0, first = 0.0, last = 0.0;
+  bool same = true;
+  Vec2 shift{0.0};
+  bool reversed = false;  // the edge runs against its parameter in the loop
+};
+
+// The chord between loop points p and q of one edge, with its proven deviation from the p-curve.
+BoundaryChord bound_chord(const FaceGeometry& g, const RangeCurve& rc, const LoopPoint& p, const LoopPoint& q) {
+  BoundaryChord c;
+  c.a = p.vertex, c.b = q.vertex;
+  c.uv_a = Vec2(p.q.x / g.su, p.q.y / g.sv), c.uv_b = Vec2(q.q.x / g.su, q.q.y / g.sv);
+  const auto param = [&](double t) {
+    return rc.same || rc.last == rc.first ? t : rc.f + (t - rc.first) * (rc.l - rc.f) / (rc.last - rc.first);
+  };
+  detail::ParameterMap map;
+  map.identity = g.identity_map;
+  map.shift = rc.shift;
+  map.metric = Vec2(g.su, g.sv);
+  if (!map.identity) {
+    map.to_uv = [&g](const Vec2& uv) { return face_to_uv(g, uv.x, uv.y); };
+    const std::vector<double>& ub = g.report.u_breaks;
+    const std::vector<double>& vb = g.report.v_breaks;
+    map.to_uv_error = 1e-12 * std::max(ub.back() - ub.front(), vb.back() - vb.front());
+  }
+  c.deviation = detail::chord_deviation(rc.pc, param(p.t), param(q.t), map, c.uv_a, c.uv_b);
+  if (rc.reversed) std::swap(c.a, c.b), std::swap(c.uv_a, c.uv_b);  // along the loop
+  return c;
+}
+
 bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& points,
                 std::vector<std::array<uint32_t, 2>>& segments, std::vector<int>& segment_edge, PartFace& pf,
-                std::vector<PoleLine>* pole_lines = nullptr) {
+                std::vector<PoleLine>* pole_lines = nullptr, std::vector<BoundaryChord>* chords = nullptr) {
   // A degenerated edge (pole, apex) is one mesh vertex but a segment in (U, V). Were its samples
   // kept apart, the CDT could join one point to two of them, and the two triangles would fold onto
   // the same edge in space; so every loop point at that vertex moves to one point, the segment's
@@ -663,6 +717,7 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
   std::map<uint32_t, Vec2> pole;
   std::vector<std::pair<uint32_t, uint32_t>> ranges;  // per edge: [first, last) in points
   std::vector<int> range_edge;
+  std::vector<RangeCurve> range_curve;
   std::set<std::pair<int, int>> done;                 // (edge, orientation) already walked
   bool missing_pcurve = false;
   const auto walk = [&](const TopoDS_Edge& edge, bool first_in_wire, Vec2& previous_end) {
@@ -718,6 +773,7 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
     }
     ranges.push_back({start, static_cast<uint32_t>(points.size())});
     range_edge.push_back(e);
+    range_curve.push_back({pc, f, l, first, last, same, shift, reversed});
   };
   for (TopExp_Explorer w(g.face, TopAbs_WIRE); w.More(); w.Next()) {
     Vec2 previous_end(0.0);
@@ -761,6 +817,7 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
       if (points[k].q != points[k - 1].q) {
         segments.push_back({k - 1, k});
         segment_edge.push_back(range_edge[r]);
+        if (chords) chords->push_back(bound_chord(g, range_curve[r], points[k - 1], points[k]));
       }
     }
   }
@@ -942,6 +999,7 @@ bool try_keep_whole_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, co
     ++pf.triangles;
     ++pf.scheme_triangles;
   }
+  pf.kept_whole = true;
   return true;
 }
 
@@ -1015,8 +1073,15 @@ bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
   std::vector<std::array<uint32_t, 2>> segments;
   std::vector<int> segment_edge;
   std::vector<PoleLine> poles;
-  if (!face_loops(b, g, loop, segments, segment_edge, pf, &poles)) return false;
+  std::vector<BoundaryChord> chords;
+  if (!face_loops(b, g, loop, segments, segment_edge, pf, &poles, &chords)) return false;
   if (try_keep_whole_face(b, g, pf, loop, poles)) return true;
+  pf.chords = std::move(chords);
+  pf.chord_metric = Vec2(g.su, g.sv);
+  if (!poles.empty()) {
+    pf.chord_note = "the face has a pole (a degenerated edge) and is re-triangulated inside its loops: the "
+                    "region at the pole is not bounded";
+  }
   if (segments.size() < 2) {
     pf.reason = "the face's boundary has no extent in its parameters";
     return false;
@@ -1231,6 +1296,9 @@ void build_part(PartBuilder& b) {
     } else {
       pf.first_patch = static_cast<int>(b.out.model.patches.size());
       pf.patch_count = static_cast<int>(g.patches.size());
+      pf.u_breaks = g.report.u_breaks, pf.v_breaks = g.report.v_breaks;
+      pf.reversed = g.reversed;
+      pf.u_period = g.u_period, pf.v_period = g.v_period;
       b.out.model.patches.insert(b.out.model.patches.end(), g.patches.begin(), g.patches.end());
       try {
         if (mesh_face(b, g, pf)) pf.status = "tessellated";

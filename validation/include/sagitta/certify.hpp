@@ -38,6 +38,10 @@ struct CertifyOptions {
   // target_ratio * (current lower estimate), down to max_depth levels (4^max_depth leaves).
   double target_ratio = 1.05;
   int max_depth = 8;
+  // A triangle whose bound is at most this fraction of the model's box diagonal is not refined
+  // further: its bound stands (still proven, only looser than it could be). 0: no floor beyond the
+  // rounding level (1e-12).
+  double refine_floor = 0.0;
   // Number of worst candidate points per direction whose distance is certified for the lower bounds.
   int lower_candidates = 24;
   // Node budget of the branch-and-bound that certifies d(x, S) from below, per candidate point.

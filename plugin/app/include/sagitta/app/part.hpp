@@ -53,39 +53,45 @@ PartValidation validate_part(const occt::PartMesh& part, const SolidCheckOptions
 // The summary fields plus solid_checks_json's list ("solid_checks") and the volume comparison.
 nlohmann::json part_validation_json(const PartValidation& validation);
 
-// Today's distance certificate (certify_distance) on the faces where it is a proof: untrimmed,
-// tessellated faces whose every triangle's (u, v) lies in [0, 1]^2 of its patch (within 1e-12,
-// clamped onto it). They are certified together as one sub-mesh against the model made of their
-// patches; every other face is listed as not certified, with its reason.
+// The distance certificate of a whole part, face by face (docs/VALIDATION.md, "Whole parts"). Each
+// face is measured against its own triangles: a face kept whole by the scheme (untrimmed, every
+// triangle inside its patch) by certify_distance on its patches ("patch" route); any other face
+// ("loops" route) by splitting its triangles along the patch grid and certifying the pieces against
+// the untrimmed patches, proving that the triangles' (U, V) tile the polygon of the loops' chords
+// exactly once, and bounding the slivers between each chord and its trimming curve by the
+// surface's speed times the chord's proven deviation (occt::BoundaryChord).
 struct FaceCertificate {
   int face = 0;
-  bool certified = false;  // covered by the certificate and its upper bound is finite
-  std::string reason;      // why not covered ("" when covered)
-  double upper = 0.0;      // the largest certified per-triangle bound of the face (when covered)
+  std::string route;        // "patch" | "loops" | "" (not tessellated)
+  bool certified = false;   // both directions' upper bounds proven
+  std::string reason;       // why not certified ("" when certified)
+  DistanceInterval mesh_to_surface, surface_to_mesh, hausdorff;  // face <-> its own triangles
+  double upper = 0.0;       // hausdorff.upper when certified
+  double sliver = 0.0;      // loops route: the largest chord term (speed x deviation), in model units
+  uint64_t chords = 0;      // loops route: chords of the face's loops
 };
 
 struct PartCertificate {
   std::vector<FaceCertificate> faces;  // one per PartMesh face
   int faces_certified = 0;
-  uint64_t triangles = 0;   // in the certified sub-mesh
-  uint64_t patches = 0;     // in the sub-model
-  DistanceReport distance;  // of the sub-mesh (empty when no face is covered)
-  // Every face of the part is covered and the sub-mesh's Hausdorff upper bound is certified: only
-  // then is the part's mesh certified.
-  bool all_certified = false;
+  uint64_t triangles = 0;   // triangles of the certified faces
+  uint64_t patches = 0;     // patches of the certified faces
+  // Max over the faces: lower bounds over every face (each is a proven lower bound of its face's
+  // distance), upper bounds certified only when every face is (+infinity otherwise).
+  DistanceReport distance;
+  bool all_certified = false;  // every face of the part is certified
+  double certified_faces_upper = 0.0;  // the largest upper bound among the certified faces
   // Per triangle of the whole part mesh: the certified bound, +infinity outside the certified faces.
   std::vector<double> triangle_upper;
   double seconds = 0.0;
 };
 
-// The reason a face is left out when trimmed (the certificate of trimmed faces is issue 15's).
-inline constexpr const char* kTrimmedNotCertified = "trimmed face: certificate not implemented yet (issue 15)";
-
 PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& options = {});
 
-// certified (all_certified), faces_certified, faces_not_certified [{face, reason}], face_upper
-// [{face, upper}] (each certified face's largest per-triangle bound), the sub-mesh's
-// hausdorff / mesh_to_surface / surface_to_mesh intervals, certified_triangles, certified_patches, seconds.
+// certified (all_certified), faces_certified, faces_not_certified [{face, reason}], faces [{face,
+// surface, trimmed, route, certified, lower, upper, reason}], the part's hausdorff /
+// mesh_to_surface / surface_to_mesh intervals (upper null unless all_certified),
+// certified_faces_upper, certified_triangles, certified_patches, seconds.
 nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCertificate& certificate);
 
 // A part meshed by one scheme, checked solid by solid and certified where today's certificate

@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,17 @@ struct PartOptions {
   // solid, for the reports; off, they stay false / 0 (they cost more than the tessellation on
   // large parts, so the benchmark leaves them out).
   bool solid_facts = true;
+};
+
+// One chord of a face's trimming loops, between the shared edge vertices a and b, in the face's patch
+// parameters (U, V) (PartFace::u_breaks / v_breaks).
+struct BoundaryChord {
+  uint32_t a = 0, b = 0;
+  Vec2 uv_a{0.0}, uv_b{0.0};
+  // Proven: every point of the trimming curve between a and b lies within this distance of the
+  // segment [uv_a, uv_b], measured in (U, V) scaled by PartFace::chord_metric (convex hull of the
+  // p-curve's exact Bézier pieces); +infinity when it could not be proven.
+  double deviation = std::numeric_limits<double>::infinity();
 };
 
 // One face of the part (faces in TopExp::MapShapes order, named as FreeCAD names them).
@@ -47,6 +59,20 @@ struct PartFace {
   // Largest distance between a boundary vertex's position and the face's Bézier surface at the
   // (u, v) the p-curve maps it to (the conversion's parametrisation checked at every boundary vertex).
   double max_boundary_offset = 0.0;
+  // The scheme's tessellation of the face's patches was kept unchanged (an untrimmed face whose
+  // edges carry the scheme's side vertices): every triangle lies in [0, 1]^2 of its patch.
+  bool kept_whole = false;
+  // The face's patch grid in its surface's parameters (U, V): patch first_patch + i * (v_breaks.size()
+  // - 1) + j spans [u_breaks[i], u_breaks[i + 1]] x [v_breaks[j], v_breaks[j + 1]] (u mirrored inside
+  // the patch when `reversed`); periods of the surface in U and V (0: not periodic).
+  std::vector<double> u_breaks, v_breaks;
+  bool reversed = false;
+  double u_period = 0.0, v_period = 0.0;
+  // A face re-triangulated inside its loops (not kept_whole): the loops' chords, and why their
+  // deviations from the trimming curves are not all proven ("" when they are).
+  std::vector<BoundaryChord> chords;
+  Vec2 chord_metric{1.0};  // the scale of U and V in which chord deviations are measured
+  std::string chord_note;
 };
 
 // A solid of the B-rep, as OCCT sees it.

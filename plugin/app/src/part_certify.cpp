@@ -1,0 +1,591 @@
+// The distance certificate of a whole part, face by face (sagitta/app/part.hpp, docs/VALIDATION.md).
+#include "sagitta/app/json.hpp"
+#include "sagitta/app/part.hpp"
+#include "sagitta/app/common.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace sagitta::app {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kUnit = std::numeric_limits<double>::epsilon();
+// How far a triangle's (u, v) may lie outside [0, 1]^2 of its patch and still be clamped onto it.
+constexpr double kUvTolerance = 1e-12;
+
+using FaceTriangles = std::vector<std::vector<uint32_t>>;
+
+// ---------------------------------------------------------------------------------------------
+// The "patch" route: faces kept whole by the scheme, certified together against their patches.
+
+// The sub-mesh of some faces' triangles and the sub-model of their patches (patch indices renumbered,
+// (u, v) clamped onto [0, 1]^2). part_triangle[k] is sub-triangle k's index in the part.
+struct SubPart {
+  Model model;
+  Tessellation mesh;
+  std::vector<uint32_t> part_triangle;
+};
+
+SubPart sub_part(const occt::PartMesh& part, const std::vector<int>& faces, const FaceTriangles& face_triangles) {
+  SubPart sub;
+  sub.model.name = part.name;
+  std::vector<int64_t> patch_map(part.model.patches.size(), -1), vertex_map(part.mesh.positions.size(), -1);
+  for (const int face : faces) {
+    const occt::PartFace& f = part.faces[static_cast<size_t>(face)];
+    for (int p = f.first_patch; p < f.first_patch + f.patch_count; ++p) {
+      patch_map[static_cast<size_t>(p)] = static_cast<int64_t>(sub.model.patches.size());
+      sub.model.patches.push_back(part.model.patches[static_cast<size_t>(p)]);
+    }
+    for (const uint32_t t : face_triangles[static_cast<size_t>(face)]) {
+      Triangle tri{};
+      for (int c = 0; c < 3; ++c) {
+        int64_t& index = vertex_map[part.mesh.triangles[t][c]];
+        if (index < 0) {
+          index = static_cast<int64_t>(sub.mesh.positions.size());
+          sub.mesh.positions.push_back(part.mesh.positions[part.mesh.triangles[t][c]]);
+        }
+        tri[c] = static_cast<uint32_t>(index);
+      }
+      std::array<Vec2, 3> uv = part.mesh.triangle_uv[t];
+      for (Vec2& q : uv) q = {std::clamp(q.x, 0.0, 1.0), std::clamp(q.y, 0.0, 1.0)};
+      sub.mesh.triangles.push_back(tri);
+      sub.mesh.triangle_patch.push_back(static_cast<uint32_t>(patch_map[part.mesh.triangle_patch[t]]));
+      sub.mesh.triangle_uv.push_back(uv);
+      sub.part_triangle.push_back(t);
+    }
+  }
+  return sub;
+}
+
+// A kept-whole face whose triangles all lie in [0, 1]^2 of the face's own patches.
+bool inside_own_patches(const occt::PartMesh& part, const occt::PartFace& f, const std::vector<uint32_t>& triangles) {
+  for (const uint32_t t : triangles) {
+    const uint32_t patch = part.mesh.triangle_patch[t];
+    if (patch < static_cast<uint32_t>(f.first_patch) || patch >= static_cast<uint32_t>(f.first_patch + f.patch_count))
+      return false;
+    for (const Vec2& q : part.mesh.triangle_uv[t]) {
+      if (!(q.x >= -kUvTolerance && q.x <= 1.0 + kUvTolerance && q.y >= -kUvTolerance && q.y <= 1.0 + kUvTolerance))
+        return false;
+    }
+  }
+  return true;
+}
+
+// certify_distance over one face's triangles and patches (the patch route): coverage of every
+// patch is the validator's own check (collapsed sides included).
+FaceCertificate certify_patch_face(const occt::PartMesh& part, int face, const FaceTriangles& face_triangles,
+                                   const CertifyOptions& options, std::vector<double>& triangle_upper) {
+  FaceCertificate fc;
+  fc.face = face;
+  fc.route = "patch";
+  const SubPart sub = sub_part(part, {face}, face_triangles);
+  const DistanceReport d = certify_distance(sub.model, sub.mesh, options);
+  fc.mesh_to_surface = d.mesh_to_surface, fc.surface_to_mesh = d.surface_to_mesh, fc.hausdorff = d.hausdorff;
+  fc.certified = d.hausdorff.certified;
+  if (!fc.certified) {
+    fc.reason = "not certified: " + (d.not_certified_reason.empty() ? d.coverage_note : d.not_certified_reason);
+    return fc;
+  }
+  for (size_t k = 0; k < sub.part_triangle.size(); ++k) triangle_upper[sub.part_triangle[k]] = d.triangle_upper[k];
+  return fc;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The "loops" route.
+
+// The face's patch grid, its periods and (U, V) <-> patch-local maps.
+struct Grid {
+  const occt::PartFace& f;
+  size_t nu = 0, nv = 0;
+  explicit Grid(const occt::PartFace& face)
+      : f(face),
+        nu(face.u_breaks.size() > 1 ? face.u_breaks.size() - 1 : 0),
+        nv(face.v_breaks.size() > 1 ? face.v_breaks.size() - 1 : 0) {}
+  // (U, V) of a point (s, t) of the face's patch `local` (0-based in the face).
+  Vec2 to_uv(uint32_t local, const Vec2& st) const {
+    const size_t i = local / nv, j = local % nv;
+    const double s = f.reversed ? 1.0 - st.x : st.x;
+    return Vec2((1.0 - s) * f.u_breaks[i] + s * f.u_breaks[i + 1], (1.0 - st.y) * f.v_breaks[j] + st.y * f.v_breaks[j + 1]);
+  }
+  double range() const {
+    return std::max(f.u_breaks.back() - f.u_breaks.front(), f.v_breaks.back() - f.v_breaks.front());
+  }
+};
+
+// Breaks extended by one period on each side (periodic directions), with each cell's original index.
+struct Breaks {
+  std::vector<double> at;
+  std::vector<size_t> cell;
+};
+
+Breaks extend(const std::vector<double>& b, double period) {
+  Breaks out;
+  const size_t n = b.size() - 1;
+  const int copies = period > 0.0 ? 1 : 0;
+  for (int c = -copies; c <= copies; ++c) {
+    for (size_t k = 0; k < n; ++k) {
+      out.at.push_back(b[k] + c * period);
+      out.cell.push_back(k);
+    }
+  }
+  out.at.push_back(b[n] + copies * period);
+  return out;
+}
+
+size_t locate(const std::vector<double>& breaks, double x) {
+  const auto it = std::upper_bound(breaks.begin(), breaks.end(), x);
+  const size_t k = it == breaks.begin() ? 0 : static_cast<size_t>(it - breaks.begin()) - 1;
+  return std::min(k, breaks.size() - 2);
+}
+
+struct ClipVertex {
+  Vec2 uv;
+  Vec3 b;  // barycentric coordinates in the triangle
+};
+
+// Sutherland-Hodgman: the part of `poly` with sign * (coordinate axis - value) >= 0.
+std::vector<ClipVertex> clip(const std::vector<ClipVertex>& poly, int axis, double value, double sign) {
+  std::vector<ClipVertex> out;
+  for (size_t k = 0; k < poly.size(); ++k) {
+    const ClipVertex& a = poly[k];
+    const ClipVertex& b = poly[(k + 1) % poly.size()];
+    const double da = sign * (a.uv[axis] - value), db = sign * (b.uv[axis] - value);
+    if (da >= 0) out.push_back(a);
+    if ((da < 0 && db > 0) || (da > 0 && db < 0)) {
+      const double t = da / (da - db);
+      ClipVertex c{a.uv + t * (b.uv - a.uv), a.b + t * (b.b - a.b)};
+      c.uv[axis] = value;
+      out.push_back(c);
+    }
+  }
+  return out;
+}
+
+// A face's triangles cut along its patch grid: every piece lies in one patch (local (s, t) clamped
+// onto [0, 1]^2 against rounding), its corners are the triangle's own affine points, so the pieces
+// of a triangle tile the same mesh triangle.
+struct Pieces {
+  Tessellation mesh;             // 3 own vertices per piece; triangle_patch is the face-local patch
+  std::vector<uint32_t> source;  // per piece: index into the face's triangle list
+};
+
+Pieces cut_along_grid(const occt::PartMesh& part, const Grid& g, const std::vector<uint32_t>& triangles,
+                      const std::vector<std::array<Vec2, 3>>& corner_uv) {
+  const Breaks bu = extend(g.f.u_breaks, g.f.u_period), bv = extend(g.f.v_breaks, g.f.v_period);
+  Pieces out;
+  for (size_t k = 0; k < triangles.size(); ++k) {
+    const Triangle& tri = part.mesh.triangles[triangles[k]];
+    const std::array<Vec2, 3>& q = corner_uv[k];
+    const Vec3 X[3] = {part.mesh.positions[tri[0]], part.mesh.positions[tri[1]], part.mesh.positions[tri[2]]};
+    const size_t i0 = std::min({locate(bu.at, q[0].x), locate(bu.at, q[1].x), locate(bu.at, q[2].x)});
+    const size_t i1 = std::max({locate(bu.at, q[0].x), locate(bu.at, q[1].x), locate(bu.at, q[2].x)});
+    const size_t j0 = std::min({locate(bv.at, q[0].y), locate(bv.at, q[1].y), locate(bv.at, q[2].y)});
+    const size_t j1 = std::max({locate(bv.at, q[0].y), locate(bv.at, q[1].y), locate(bv.at, q[2].y)});
+    for (size_t i = i0; i <= i1; ++i) {
+      for (size_t j = j0; j <= j1; ++j) {
+        std::vector<ClipVertex> poly{{q[0], Vec3(1, 0, 0)}, {q[1], Vec3(0, 1, 0)}, {q[2], Vec3(0, 0, 1)}};
+        // The outer ends of the (extended) grid are not clipped: corners beyond them by rounding stay.
+        if (i0 != i1 || j0 != j1) {
+          if (i > 0) poly = clip(poly, 0, bu.at[i], 1.0);
+          if (i + 2 < bu.at.size() && !poly.empty()) poly = clip(poly, 0, bu.at[i + 1], -1.0);
+          if (j > 0 && !poly.empty()) poly = clip(poly, 1, bv.at[j], 1.0);
+          if (j + 2 < bv.at.size() && !poly.empty()) poly = clip(poly, 1, bv.at[j + 1], -1.0);
+        }
+        const uint32_t local = static_cast<uint32_t>(bu.cell[i] * g.nv + bv.cell[j]);
+        for (size_t m = 1; m + 1 < poly.size(); ++m) {
+          const ClipVertex* v[3] = {&poly[0], &poly[m], &poly[m + 1]};
+          const Vec2 e1 = v[1]->uv - v[0]->uv, e2 = v[2]->uv - v[0]->uv;
+          if (e1.x * e2.y - e1.y * e2.x == 0.0) continue;
+          const uint32_t base = static_cast<uint32_t>(out.mesh.positions.size());
+          std::array<Vec2, 3> st;
+          for (int c = 0; c < 3; ++c) {
+            const Vec3& w = v[c]->b;
+            out.mesh.positions.push_back(w.x * X[0] + w.y * X[1] + w.z * X[2]);
+            double s = (v[c]->uv.x - bu.at[i]) / (bu.at[i + 1] - bu.at[i]);
+            const double t = (v[c]->uv.y - bv.at[j]) / (bv.at[j + 1] - bv.at[j]);
+            s = std::clamp(s, 0.0, 1.0);
+            st[c] = Vec2(g.f.reversed ? 1.0 - s : s, std::clamp(t, 0.0, 1.0));
+          }
+          out.mesh.triangles.push_back({base, base + 1, base + 2});
+          out.mesh.triangle_patch.push_back(local);
+          out.mesh.triangle_uv.push_back(st);
+          out.source.push_back(static_cast<uint32_t>(k));
+        }
+      }
+    }
+  }
+  return out;
+}
+
+// The largest |dS/dU| and |dS/dV| over the face's patches (so |DS h| <= x |h_U| + y |h_V|), from
+// their control nets: for S = P / W, |S_s| <= (|(P - o W)_s| + |S - o| |W_s|) /
+// min W, each term bounded by the derivative nets' largest entry (convex hull property).
+Vec2 face_speed(const Model& model, const Grid& g) {
+  Vec2 speed(0.0);
+  for (size_t p = 0; p < model.patches.size(); ++p) {
+    const BezierPatch& patch = model.patches[p];
+    Vec3 o(0.0);
+    for (const Vec3& q : patch.points) o += q / double(patch.points.size());
+    double wmin = kInf, radius = 0.0;
+    for (int i = 0; i < patch.rows(); ++i) {
+      for (int j = 0; j < patch.cols(); ++j) {
+        wmin = std::min(wmin, patch.weight(i, j));
+        radius = std::max(radius, glm::length(patch.at(i, j) - o));
+      }
+    }
+    double du = 0.0, dv = 0.0, wu = 0.0, wv = 0.0;
+    for (int i = 0; i < patch.rows(); ++i) {
+      for (int j = 0; j < patch.cols(); ++j) {
+        const Vec3 h = patch.weight(i, j) * (patch.at(i, j) - o);
+        if (i + 1 < patch.rows()) {
+          du = std::max(du, glm::length(patch.weight(i + 1, j) * (patch.at(i + 1, j) - o) - h));
+          wu = std::max(wu, std::abs(patch.weight(i + 1, j) - patch.weight(i, j)));
+        }
+        if (j + 1 < patch.cols()) {
+          dv = std::max(dv, glm::length(patch.weight(i, j + 1) * (patch.at(i, j + 1) - o) - h));
+          wv = std::max(wv, std::abs(patch.weight(i, j + 1) - patch.weight(i, j)));
+        }
+      }
+    }
+    const double su = patch.degree_u * (du + radius * wu) / wmin, sv = patch.degree_v * (dv + radius * wv) / wmin;
+    const size_t i = p / g.nv, j = p % g.nv;
+    const double span_u = g.f.u_breaks[i + 1] - g.f.u_breaks[i], span_v = g.f.v_breaks[j + 1] - g.f.v_breaks[j];
+    speed = glm::max(speed, Vec2(su / span_u, sv / span_v));
+  }
+  return speed * (1.0 + 64.0 * kUnit);
+}
+
+// Distance from p to the segment [a, b].
+double segment_distance(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 d = b - a;
+  const double len2 = glm::dot(d, d);
+  const double s = len2 > 0.0 ? std::clamp(glm::dot(p - a, d) / len2, 0.0, 1.0) : 0.0;
+  return glm::length(p - (a + s * d));
+}
+
+// x - y with whole periods removed (the nearest copy) in periodic directions.
+Vec2 periodic_difference(const Grid& g, Vec2 d) {
+  if (g.f.u_period > 0.0) d.x -= g.f.u_period * std::round(d.x / g.f.u_period);
+  if (g.f.v_period > 0.0) d.y -= g.f.v_period * std::round(d.y / g.f.v_period);
+  return d;
+}
+
+// The oriented boundary of the face's triangles against its loops' chords, edge by edge: an edge is
+// keyed by its two mesh vertices and its midpoint in (U, V) (seam copies apart, whole periods
+// ignored). `triangles` counts +1 / -1 per directed use, `chords` likewise.
+struct EdgeUse {
+  Vec2 mid;
+  int triangles = 0, chords = 0;
+  uint32_t triangle = 0;  // the last triangle (face-local index) using the edge
+};
+
+class EdgeChain {
+ public:
+  EdgeChain(const Grid& g, double tol) : g_(g), tol_(tol) {}
+  EdgeUse& use(uint32_t a, uint32_t b, const Vec2& mid) {
+    std::vector<EdgeUse>& list = map_[{std::min(a, b), std::max(a, b)}];
+    for (EdgeUse& e : list) {
+      if (glm::length(periodic_difference(g_, e.mid - mid)) <= tol_) return e;
+    }
+    list.push_back({mid});
+    return list.back();
+  }
+  int sign(uint32_t a, uint32_t b) const { return a < b ? 1 : -1; }
+  const std::map<std::pair<uint32_t, uint32_t>, std::vector<EdgeUse>>& uses() const { return map_; }
+
+ private:
+  const Grid& g_;
+  double tol_;
+  std::map<std::pair<uint32_t, uint32_t>, std::vector<EdgeUse>> map_;
+};
+
+// Why the triangles' (U, V) do not tile the chords' polygon exactly once ("" when they do): every
+// triangle has one orientation, and the triangles' oriented boundary equals the chords' chain (up to
+// one global sign). Then, by the degree of the map, each point inside the polygon lies in exactly
+// one triangle. Fills chord_triangle (per chord: the triangle on it).
+std::string tiling_reason(const occt::PartMesh& part, const Grid& g, const std::vector<uint32_t>& triangles,
+                          const std::vector<std::array<Vec2, 3>>& corner_uv, std::vector<uint32_t>& chord_triangle) {
+  const occt::PartFace& f = g.f;
+  int orientation = 0;
+  for (const auto& q : corner_uv) {
+    const long double area =
+        (static_cast<long double>(q[1].x) - q[0].x) * (static_cast<long double>(q[2].y) - q[0].y) -
+        (static_cast<long double>(q[2].x) - q[0].x) * (static_cast<long double>(q[1].y) - q[0].y);
+    const int s = area > 0.0L ? 1 : area < 0.0L ? -1 : 0;
+    if (s == 0) return "a triangle is degenerate in (U, V)";
+    if (orientation == 0) orientation = s;
+    if (s != orientation) return "the triangles fold over in (U, V) (both orientations)";
+  }
+  EdgeChain chain(g, 1e-7 * g.range());
+  for (size_t k = 0; k < triangles.size(); ++k) {
+    const Triangle& tri = part.mesh.triangles[triangles[k]];
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t a = tri[c], b = tri[(c + 1) % 3];
+      EdgeUse& e = chain.use(a, b, 0.5 * (corner_uv[k][c] + corner_uv[k][(c + 1) % 3]));
+      e.triangles += chain.sign(a, b);
+      e.triangle = static_cast<uint32_t>(k);
+    }
+  }
+  for (const occt::BoundaryChord& c : f.chords) chain.use(c.a, c.b, 0.5 * (c.uv_a + c.uv_b)).chords += chain.sign(c.a, c.b);
+  int global = 0;
+  for (const auto& [key, list] : chain.uses()) {
+    for (const EdgeUse& e : list) {
+      if (e.triangles == 0 && e.chords == 0) continue;
+      if (global == 0 && e.chords != 0) global = e.triangles * e.chords > 0 ? 1 : -1;
+      if (global == 0 || e.triangles != global * e.chords) {
+        return "the triangles' boundary in (U, V) differs from the loops' chords (near vertices " +
+               std::to_string(key.first) + " and " + std::to_string(key.second) + ")";
+      }
+    }
+  }
+  if (global == 0) return "the face's loops have no chord";
+  chord_triangle.assign(f.chords.size(), 0);
+  for (size_t k = 0; k < f.chords.size(); ++k) {
+    const occt::BoundaryChord& c = f.chords[k];
+    chord_triangle[k] = chain.use(c.a, c.b, 0.5 * (c.uv_a + c.uv_b)).triangle;
+  }
+  return "";
+}
+
+// (U, V) of the corners of the face's triangles.
+std::vector<std::array<Vec2, 3>> corner_uvs(const occt::PartMesh& part, const Grid& g,
+                                            const std::vector<uint32_t>& triangles, std::string& reason) {
+  std::vector<std::array<Vec2, 3>> uv(triangles.size());
+  for (size_t k = 0; k < triangles.size(); ++k) {
+    const uint32_t t = triangles[k];
+    const int64_t local = int64_t(part.mesh.triangle_patch[t]) - g.f.first_patch;
+    if (local < 0 || local >= g.f.patch_count) {
+      reason = "a triangle refers to another face's patch";
+      return {};
+    }
+    for (int c = 0; c < 3; ++c) uv[k][c] = g.to_uv(static_cast<uint32_t>(local), part.mesh.triangle_uv[t][c]);
+  }
+  return uv;
+}
+
+// A point of the face's (U, V) that may lie outside the trimmed domain: within a chord's deviation
+// of that chord (the only places where the chords' polygon and the domain differ).
+bool near_a_chord(const Grid& g, const Vec2& w) {
+  for (const occt::BoundaryChord& c : g.f.chords) {
+    const Vec2 d = c.uv_a - w;
+    const Vec2 near = w + (d - periodic_difference(g, d));  // w moved whole periods towards the chord
+    const Vec2 m = g.f.chord_metric;
+    if (segment_distance(m * near, m * c.uv_a, m * c.uv_b) <= 2.0 * c.deviation + 1e-9 * g.range() * std::max(m.x, m.y))
+      return true;
+  }
+  return false;
+}
+
+// The loops route for face `face` (see FaceCertificate).
+FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const std::vector<uint32_t>& triangles,
+                                  const CertifyOptions& options, std::vector<double>& triangle_upper) {
+  const occt::PartFace& f = part.faces[static_cast<size_t>(face)];
+  FaceCertificate fc;
+  fc.face = face;
+  fc.route = "loops";
+  fc.chords = f.chords.size();
+  const Grid g(f);
+  if (g.nu * g.nv != static_cast<size_t>(f.patch_count) || g.nu == 0) {
+    fc.reason = "the face's patch grid is unknown";
+    return fc;
+  }
+  std::string reason;
+  const std::vector<std::array<Vec2, 3>> corner_uv = corner_uvs(part, g, triangles, reason);
+  if (!reason.empty()) {
+    fc.reason = reason;
+    return fc;
+  }
+  Model model;
+  model.name = part.name + " " + f.name;
+  model.patches.assign(part.model.patches.begin() + f.first_patch,
+                       part.model.patches.begin() + f.first_patch + f.patch_count);
+  const Pieces pieces = cut_along_grid(part, g, triangles, corner_uv);
+  if (pieces.mesh.triangles.empty()) {
+    fc.reason = "no triangle of the face has a non-degenerate (U, V) image";
+    return fc;
+  }
+  CertifyOptions cut = options;
+  // Pieces of exact (planar) triangles whose corners sit on the edges' curves carry the edges'
+  // tolerance: refining them below it would only exhaust the depth budget.
+  if (cut.refine_floor <= 0.0) {
+    const double face_size = model_box(model).diagonal();
+    cut.refine_floor = face_size > 0.0 ? 1e-7 * model_box(part.model).diagonal() / face_size : 0.0;
+  }
+  cut.in_domain = [&g](uint32_t local, Vec2 st) { return !near_a_chord(g, g.to_uv(local, st)); };
+  DistanceReport d = certify_distance(model, pieces.mesh, cut);
+
+  // Per triangle: its pieces' bound, plus the rounding of the pieces' corners (affine combinations).
+  std::vector<double> base(triangles.size(), 0.0);
+  for (size_t k = 0; k < pieces.source.size(); ++k) {
+    const double rounding = 8.0 * kUnit * glm::length(pieces.mesh.positions[pieces.mesh.triangles[k][0]]);
+    base[pieces.source[k]] = std::max(base[pieces.source[k]], d.triangle_upper[k] + rounding);
+  }
+  std::vector<double> upper = base;
+  // The slivers between chords and trimming curves: within `deviation` (metric m) of a chord point c,
+  // so within e_T + lipschitz * deviation of the mesh (both directions), T the triangle on the
+  // chord: |S(w) - S(c)| <= x |h_U| + y |h_V| <= max(x / m_U, y / m_V) sqrt(2) |h|_m.
+  // A tiling gap of rounding size between neighbours' corners costs the speed times 1e-12 of the range.
+  const Vec2 speed = face_speed(model, g);
+  const Vec2 m = f.chord_metric;
+  const double lipschitz = std::sqrt(2.0) * std::max(speed.x / m.x, speed.y / m.y) * (1.0 + 8.0 * kUnit);
+  const double gap = (speed.x + speed.y) * 1e-12 * g.range();
+  std::vector<uint32_t> chord_triangle;
+  const std::string tiling = tiling_reason(part, g, triangles, corner_uv, chord_triangle);
+  double face_upper = 0.0;
+  for (const double u : upper) face_upper = std::max(face_upper, u + gap);
+  bool deviations_proven = true;
+  if (tiling.empty()) {
+    for (size_t k = 0; k < f.chords.size(); ++k) {
+      const double term = lipschitz * f.chords[k].deviation;
+      deviations_proven = deviations_proven && std::isfinite(term);
+      fc.sliver = std::max(fc.sliver, term);
+      const uint32_t t = chord_triangle[k];
+      upper[t] = std::max(upper[t], base[t] + term + gap);
+      face_upper = std::max(face_upper, upper[t]);
+    }
+  }
+  fc.mesh_to_surface = d.mesh_to_surface;
+  fc.surface_to_mesh = d.surface_to_mesh;
+  fc.mesh_to_surface.upper = face_upper;
+  fc.surface_to_mesh.upper = face_upper;
+  if (!f.chord_note.empty()) {
+    fc.reason = f.chord_note;
+  } else if (!tiling.empty()) {
+    fc.reason = tiling;
+  } else if (!deviations_proven) {
+    fc.reason = "a trimming curve's deviation from its chords is not proven (its p-curve has no exact Bézier form)";
+  } else if (!d.not_certified_reason.empty()) {
+    fc.reason = d.not_certified_reason;
+  } else if (!d.mesh_to_surface.certified || !std::isfinite(d.surface_to_mesh_over_triangles) ||
+             !std::isfinite(face_upper)) {
+    fc.reason = "the bound over the triangles is not finite";
+  }
+  fc.certified = fc.reason.empty();
+  for (DistanceInterval* i : {&fc.mesh_to_surface, &fc.surface_to_mesh}) {
+    i->certified = fc.certified;
+    if (!fc.certified) i->upper = kInf;
+  }
+  fc.hausdorff = fc.mesh_to_surface.lower >= fc.surface_to_mesh.lower ? fc.mesh_to_surface : fc.surface_to_mesh;
+  fc.hausdorff.upper = fc.certified ? face_upper : kInf;
+  if (fc.certified) {
+    for (size_t k = 0; k < triangles.size(); ++k) triangle_upper[triangles[k]] = upper[k];
+  }
+  return fc;
+}
+
+// Folds the faces into the part's report: lower bounds over every face, upper bounds certified only
+// when every face is.
+void fold_faces(PartCertificate& cert) {
+  DistanceReport& d = cert.distance;
+  d = DistanceReport{};
+  bool all = !cert.faces.empty();
+  for (const FaceCertificate& f : cert.faces) {
+    all = all && f.certified;
+    const std::pair<DistanceInterval*, const DistanceInterval*> pairs[] = {
+        {&d.mesh_to_surface, &f.mesh_to_surface}, {&d.surface_to_mesh, &f.surface_to_mesh}, {&d.hausdorff, &f.hausdorff}};
+    for (const auto& [to, from] : pairs) {
+      if (from->lower > to->lower) {
+        to->lower = from->lower;
+        to->witness = from->witness;
+        to->witness_patch = from->witness_patch;
+      }
+    }
+    if (f.certified) cert.certified_faces_upper = std::max(cert.certified_faces_upper, f.hausdorff.upper);
+  }
+  double m2s = 0.0, s2m = 0.0;
+  for (const FaceCertificate& f : cert.faces) {
+    m2s = std::max(m2s, f.mesh_to_surface.upper);
+    s2m = std::max(s2m, f.surface_to_mesh.upper);
+  }
+  d.mesh_to_surface.upper = all ? m2s : kInf;
+  d.surface_to_mesh.upper = all ? s2m : kInf;
+  d.hausdorff.upper = all ? std::max(m2s, s2m) : kInf;
+  for (DistanceInterval* i : {&d.mesh_to_surface, &d.surface_to_mesh, &d.hausdorff}) i->certified = all;
+  d.coverage_ok = all;
+  check_distance_report(d);
+  cert.all_certified = all && d.hausdorff.certified;
+}
+
+}  // namespace
+
+PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& options) {
+  const Stopwatch clock;
+  if (!part.mesh.has_surface()) throw InputError(part.name + ": the part mesh has no (u, v) to certify");
+  PartCertificate cert;
+  cert.triangle_upper.assign(part.mesh.triangles.size(), kInf);
+  FaceTriangles face_triangles(part.faces.size());
+  for (size_t t = 0; t < part.triangle_face.size(); ++t) face_triangles[part.triangle_face[t]].push_back(static_cast<uint32_t>(t));
+  cert.faces.resize(part.faces.size());
+  // Faces in parallel; each face's certificate is itself parallel over its triangles.
+  tbb::parallel_for(size_t(0), part.faces.size(), [&](size_t k) {
+    const occt::PartFace& f = part.faces[k];
+    FaceCertificate& fc = cert.faces[k];
+    fc.face = f.face_index;
+    if (f.status != "tessellated" || face_triangles[k].empty()) {
+      fc.reason = "not tessellated: " + (f.reason.empty() ? std::string("no triangles") : f.reason);
+      return;
+    }
+    try {
+      if (f.kept_whole && !f.trimmed && inside_own_patches(part, f, face_triangles[k])) {
+        fc = certify_patch_face(part, f.face_index, face_triangles, options, cert.triangle_upper);
+      } else {
+        fc = certify_loop_face(part, f.face_index, face_triangles[k], options, cert.triangle_upper);
+      }
+    } catch (const InputError& e) {
+      fc.reason = std::string("not certified: ") + e.what();
+    }
+    if (fc.certified) fc.upper = fc.hausdorff.upper;
+  });
+  for (const FaceCertificate& fc : cert.faces) {
+    if (!fc.certified) continue;
+    ++cert.faces_certified;
+    const occt::PartFace& f = part.faces[static_cast<size_t>(fc.face)];
+    cert.triangles += face_triangles[static_cast<size_t>(fc.face)].size();
+    cert.patches += static_cast<uint64_t>(f.patch_count);
+  }
+  fold_faces(cert);
+  cert.seconds = clock.seconds();
+  return cert;
+}
+
+nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCertificate& c) {
+  nlohmann::json j;
+  j["certified"] = c.all_certified;
+  j["faces_certified"] = c.faces_certified;
+  j["faces_total"] = part.faces.size();
+  nlohmann::json missing = nlohmann::json::array(), faces = nlohmann::json::array();
+  for (const FaceCertificate& f : c.faces) {
+    const occt::PartFace& pf = part.faces[static_cast<size_t>(f.face)];
+    if (!f.certified) missing.push_back({{"face", pf.name}, {"reason", f.reason}});
+    nlohmann::json row = {{"face", pf.name},           {"surface", pf.surface_type}, {"trimmed", pf.trimmed},
+                          {"route", f.route},          {"certified", f.certified},   {"lower", f.hausdorff.lower},
+                          {"upper", number_or_null(f.certified ? f.hausdorff.upper : kInf)}};
+    if (f.route == "loops") row["chords"] = f.chords, row["sliver"] = f.sliver;
+    if (!f.certified) row["reason"] = f.reason;
+    faces.push_back(std::move(row));
+  }
+  j["faces_not_certified"] = missing;
+  j["faces"] = faces;
+  j["certified_faces_upper"] = c.certified_faces_upper;
+  j["certified_triangles"] = c.triangles;
+  j["certified_patches"] = c.patches;
+  j["hausdorff"] = interval_json(c.distance.hausdorff);
+  j["mesh_to_surface"] = interval_json(c.distance.mesh_to_surface);
+  j["surface_to_mesh"] = interval_json(c.distance.surface_to_mesh);
+  j["seconds"] = c.seconds;
+  return j;
+}
+
+}  // namespace sagitta::app

@@ -1,0 +1,131 @@
+// Chord deviations of trimming curves (part_chords.hpp).
+#include "part_chords.hpp"
+
+#include <Geom2dConvert.hxx>
+#include <Geom2dConvert_BSplineCurveToBezierCurve.hxx>
+#include <Geom2d_BSplineCurve.hxx>
+#include <Geom2d_BezierCurve.hxx>
+#include <Geom2d_TrimmedCurve.hxx>
+#include <Standard_Failure.hxx>
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace sagitta::occt::detail {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+double segment_distance(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 d = b - a;
+  const double len2 = glm::dot(d, d);
+  const double s = len2 > 0.0 ? std::clamp(glm::dot(p - a, d) / len2, 0.0, 1.0) : 0.0;
+  return glm::length(p - (a + s * d));
+}
+
+// A Bézier arc in homogeneous form: (w x, w y, w) per control point.
+using Arc = std::vector<glm::dvec3>;
+
+Vec2 euclid(const glm::dvec3& h) { return Vec2(h.x / h.z, h.y / h.z); }
+
+// de Casteljau at s = 1/2: the two halves.
+std::pair<Arc, Arc> halves(const Arc& arc) {
+  Arc work = arc, left, right;
+  const size_t n = arc.size();
+  left.reserve(n), right.resize(n);
+  for (size_t level = 0; level < n; ++level) {
+    left.push_back(work[0]);
+    right[n - 1 - level] = work[n - 1 - level];
+    for (size_t k = 0; k + 1 < n - level; ++k) work[k] = 0.5 * (work[k] + work[k + 1]);
+  }
+  return {left, right};
+}
+
+Vec2 midpoint(const Arc& arc) {
+  Arc work = arc;
+  for (size_t level = 1; level < work.size(); ++level) {
+    for (size_t k = 0; k + level < work.size(); ++k) work[k] = 0.5 * (work[k] + work[k + 1]);
+  }
+  return euclid(work[0]);
+}
+
+struct Bounder {
+  const ParameterMap& map;
+  Vec2 a, b;
+  double floor;
+  int max_depth;
+
+  Vec2 mapped(const Vec2& uv) const {
+    return map.metric * (map.identity ? uv + map.shift : map.to_uv(uv + map.shift));
+  }
+
+  // A bound of the arc's distance to [a, b] from its control points' hull (through the map: the
+  // hull's box, mapped corner by corner, plus the map's own error).
+  double hull_bound(const Arc& arc) const {
+    if (map.identity) {
+      double d = 0.0;
+      for (const glm::dvec3& h : arc) d = std::max(d, segment_distance(mapped(euclid(h)), a, b));
+      return d;
+    }
+    Vec2 lo(kInf), hi(-kInf);
+    for (const glm::dvec3& h : arc) lo = glm::min(lo, euclid(h)), hi = glm::max(hi, euclid(h));
+    const Vec2 mid = 0.5 * (lo + hi);
+    const double u0 = mapped(Vec2(lo.x, mid.y)).x, u1 = mapped(Vec2(hi.x, mid.y)).x;
+    const double v0 = mapped(Vec2(mid.x, lo.y)).y, v1 = mapped(Vec2(mid.x, hi.y)).y;
+    double d = 0.0;
+    for (double U : {u0, u1}) {
+      for (double V : {v0, v1}) d = std::max(d, segment_distance(Vec2(U, V), a, b));
+    }
+    return d + map.to_uv_error * std::max(map.metric.x, map.metric.y);
+  }
+
+  double bound(const Arc& arc, int depth) const {
+    const double hull = hull_bound(arc);
+    const double point = segment_distance(mapped(midpoint(arc)), a, b);
+    if (!(hull > floor) || hull <= 1.1 * point || depth >= max_depth) return hull;
+    const auto [left, right] = halves(arc);
+    return std::max(bound(left, depth + 1), bound(right, depth + 1));
+  }
+};
+
+}  // namespace
+
+double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1, const ParameterMap& map, const Vec2& a_uv,
+                       const Vec2& b_uv) {
+  const Vec2 a = map.metric * a_uv, b = map.metric * b_uv;
+  const double scale = std::max({std::abs(a.x), std::abs(a.y), std::abs(b.x), std::abs(b.y)}) + glm::length(b - a);
+  const Bounder bounder{map, a, b, 1e-9 * glm::length(b - a), map.identity ? 10 : 8};
+  const double rounding = 1e-13 * scale;
+  try {
+    if (p0 == p1) {
+      const gp_Pnt2d q = pcurve->Value(p0);
+      return segment_distance(bounder.mapped(Vec2(q.X(), q.Y())), a, b) +
+             map.to_uv_error * std::max(map.metric.x, map.metric.y) + rounding;
+    }
+    Handle(Geom2d_TrimmedCurve) piece = new Geom2d_TrimmedCurve(pcurve, std::min(p0, p1), std::max(p0, p1));
+    const Handle(Geom2d_BSplineCurve) spline = Geom2dConvert::CurveToBSplineCurve(piece);
+    Geom2dConvert_BSplineCurveToBezierCurve bezier(spline);
+    double deviation = 0.0;
+    for (int k = 1; k <= bezier.NbArcs(); ++k) {
+      const Handle(Geom2d_BezierCurve) arc = bezier.Arc(k);
+      Arc h;
+      for (int i = 1; i <= arc->NbPoles(); ++i) {
+        const double w = arc->Weight(i);
+        if (!(w > 0.0) || !std::isfinite(w)) return kInf;
+        const gp_Pnt2d q = arc->Pole(i);
+        h.push_back(glm::dvec3(w * q.X(), w * q.Y(), w));
+      }
+      deviation = std::max(deviation, bounder.bound(h, 0));
+    }
+    return std::isfinite(deviation) ? deviation + rounding : kInf;
+  } catch (const Standard_Failure&) {
+    return kInf;
+  }
+}
+
+}  // namespace sagitta::occt::detail

@@ -1,0 +1,36 @@
+// Proven bounds on how far a face's trimming curve leaves the chords the part mesher draws between
+// its shared edge samples (docs/CAD.md, "Certificate of whole parts"). The certificate of a trimmed
+// face needs, for every chord, a number delta with: every point of the trimming curve between the
+// chord's two samples lies within delta of the chord segment, in the face's patch parameters (U, V).
+#pragma once
+
+#include "sagitta/patch.hpp"
+
+#include <Geom2d_Curve.hxx>
+
+#include <functional>
+
+namespace sagitta::occt::detail {
+
+// The map from a p-curve's coordinates (u, v) (OCCT's surface parameters, periodic shift included)
+// to the patches' (U, V). `identity`: (U, V) = (u, v) (B-spline, Bézier and plane faces);
+// otherwise the map is separable and monotone in each coordinate (OCCT's conversion of circles:
+// U depends on u only, V on v only), evaluated by `to_uv`.
+struct ParameterMap {
+  bool identity = true;
+  Vec2 shift{0.0};  // added to (u, v) first (whole periods)
+  std::function<Vec2(const Vec2&)> to_uv;  // of the shifted (u, v); unused when identity
+  double to_uv_error = 0.0;                // bound on to_uv's own error (an iterative solve)
+  Vec2 metric{1.0};  // distances are measured with U scaled by metric.x and V by metric.y
+};
+
+// Upper bound of max over p in [p0, p1] of dist(map(pcurve(p)), segment [a, b]) (both scaled by
+// map.metric), from the convex
+// hull of the curve's Bézier pieces (OCCT's exact conversion; rational pieces need positive
+// weights), subdivided until the hull is within 10 % of a curve point's distance. Through a
+// non-identity map each piece's (u, v) box is mapped corner by corner (monotone coordinates).
+// +infinity when the curve cannot be converted or has a non-positive weight.
+double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1, const ParameterMap& map, const Vec2& a_uv,
+                       const Vec2& b_uv);
+
+}  // namespace sagitta::occt::detail
