@@ -67,10 +67,15 @@ class ViewProviderTessellation:
     def updateData(self, obj, prop):
         """FreeCAD's mesh view reads the per-facet colours when Coloring is switched on, not when they
         change: re-applies them when a recompute gives new ones (a whole part's face colours)."""
-        vobj = getattr(obj, "ViewObject", None)
-        if prop == "FaceColors" and vobj is not None and vobj.Coloring and len(obj.FaceColors) == obj.Mesh.CountFacets:
-            vobj.Coloring = False
-            vobj.Coloring = True
+        if prop == "FaceColors":
+            refresh_colours(obj)
+
+    def finishRestoring(self):
+        """A reopened document: the view's Coloring is restored before the colours reach the mesh view,
+        which then shows grey; re-applies them once the document is loaded."""
+        obj = getattr(self, "Object", None)
+        if obj is not None:
+            refresh_colours(obj)
 
     def setEdit(self, vobj, mode=0):
         if mode != 0:
@@ -90,6 +95,14 @@ class ViewProviderTessellation:
 
     def __setstate__(self, state):
         return None
+
+
+def refresh_colours(obj):
+    """Makes the mesh view show the feature's per-triangle colours (FaceColors) when Coloring is on."""
+    vobj = getattr(obj, "ViewObject", None)
+    if vobj is not None and vobj.Coloring and len(obj.FaceColors) == obj.Mesh.CountFacets > 0:
+        vobj.Coloring = False
+        vobj.Coloring = True
 
 
 def attach_view_provider(obj):
