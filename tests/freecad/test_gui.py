@@ -107,38 +107,56 @@ def run_command(name, obj=None, sub=None):
 
 
 def check_defects(watcher):
-    """Issue 18's point 5, as a user meets it: Cancel in the creation panel, a refused panel edit, a
-    refused property-editor edit, a target error of 0, a refused Validate of a Part object, a malformed
-    .bpt through the Import command, the error colours after save and reopen."""
+    """Issue 18's point 5, as a user meets it, one step each (a step that raises is a failure, the
+    next ones still run): Cancel in the creation panel, a refused panel edit, a refused
+    property-editor edit, a target error of 0, a refused Validate of a Part object, a malformed .bpt
+    through the Import command, the error colours after save and reopen."""
     import Part
+    doc = FreeCAD.newDocument("Defects")
+    ctx = {"doc": doc, "face": bezier_source(doc), "disk": doc.addObject("Part::Feature", "Disk")}
+    ctx["disk"].Shape = Part.Face(Part.Wire(Part.makeCircle(5)))  # one trimmed face: nothing to certify
+    doc.recompute()
+    for step in (creation_panel_cancel_and_ok, refused_panel_edit, refused_property_edit, fit_target_zero,
+                 refused_validate, malformed_import, colours_after_reopen):
+        try:
+            step(watcher, ctx)
+        except Exception:
+            traceback.print_exc()
+            check(False, "%s raised" % step.__name__)
+        FreeCADGui.Control.closeDialog()
+    if FreeCAD.listDocuments().get(ctx["doc"].Name) is not None:
+        FreeCAD.closeDocument(ctx["doc"].Name)
+    process_events(20)
+
+
+def creation_panel_cancel_and_ok(watcher, ctx):
     import SagittaCore
     import SagittaGui
-    doc = FreeCAD.newDocument("Defects")
-    face = bezier_source(doc)
-    disk = doc.addObject("Part::Feature", "Disk")  # a trimmed face only: nothing Sagitta can certify
-    disk.Shape = Part.Face(Part.Wire(Part.makeCircle(5)))
-    doc.recompute()
-
+    doc = ctx["doc"]
     names = sorted(o.Name for o in doc.Objects)
-    run_command("Sagitta_Tessellate", face)
+    run_command("Sagitta_Tessellate", ctx["face"])
     check(isinstance(SagittaGui.active_panel, SagittaGui.TessellatePanel) and len(doc.Objects) == len(names) + 1,
           "Tessellate adds a feature and opens its panel")
     SagittaGui.active_panel.reject()
     process_events()
     check(sorted(o.Name for o in doc.Objects) == names, "Cancel in the creation panel removes the new feature")
-
-    run_command("Sagitta_Tessellate", face)
+    run_command("Sagitta_Tessellate", ctx["face"])
     SagittaGui.active_panel.level.setValue(3)
     check(SagittaGui.active_panel.accept() is True, "OK in the creation panel keeps the feature")
     tess = [o for o in doc.Objects if SagittaCore.is_tessellation(o)]
     check(len(tess) == 1, "one feature after Cancel then OK")
-    tess = tess[0]
-    facets = tess.Mesh.CountFacets
+    name = tess[-1].Name
     doc.undo()
     check(not any(SagittaCore.is_tessellation(o) for o in doc.Objects), "creation + panel edit: one Undo step")
     doc.redo()
-    tess = doc.getObject(tess.Name)
+    ctx["tess"] = doc.getObject(name)
 
+
+def refused_panel_edit(watcher, ctx):
+    import SagittaCore
+    import SagittaGui
+    tess = ctx["tess"]
+    facets = tess.Mesh.CountFacets
     tess.ViewObject.doubleClicked()
     panel = SagittaGui.active_panel
     panel.scheme.setCurrentIndex(SagittaCore.SCHEMES.index("pn"))
@@ -152,10 +170,13 @@ def check_defects(watcher):
           "after a refused panel edit the old values and mesh are back, the feature valid (%s)" % tess.State)
     panel.reject()
 
+
+def refused_property_edit(watcher, ctx):
+    tess = ctx["tess"]
     before, threshold = report_view_text(), tess.Threshold
     tess.Threshold = -1.0  # what the property editor does
     tess.Scheme = "esc"
-    doc.recompute()
+    ctx["doc"].recompute()
     process_events(20)
     added = report_view_text()[len(before):].strip()
     check("Traceback" not in added and "--" not in added and "Threshold" in added and len(added.splitlines()) == 1,
@@ -163,6 +184,10 @@ def check_defects(watcher):
     check((tess.Scheme, tess.Threshold) == ("uniform", threshold) and "Invalid" not in tess.State,
           "a refused property edit sets the old values back")
 
+
+def fit_target_zero(watcher, ctx):
+    import SagittaGui
+    tess = ctx["tess"]
     run_command("Sagitta_Fit", tess)
     fit = SagittaGui.active_panel
     fit.target.setText("0")
@@ -173,17 +198,23 @@ def check_defects(watcher):
           "target 0: a clear message, nothing fitted (%s)" % watcher.texts[seen:])
     fit.reject()
 
-    names = sorted(o.Name for o in doc.Objects)
-    seen = len(watcher.texts)
-    run_command("Sagitta_Validate", disk)
+
+def refused_validate(watcher, ctx):
+    doc = ctx["doc"]
+    names, seen = sorted(o.Name for o in doc.Objects), len(watcher.texts)
+    run_command("Sagitta_Validate", ctx["disk"])
     check(len(watcher.texts) > seen, "Validate of a Part object it cannot certify shows a message")
     check(sorted(o.Name for o in doc.Objects) == names, "a refused Validate leaves no FreeCADMesh object")
 
+
+def malformed_import(watcher, ctx):
+    doc = ctx["doc"]
     bad = os.path.join(os.environ["HOME"], "malformed.bpt")
     with open(bad, "w") as f:
         f.write("1\n3 3\n0 0 0\n")
     QtGui.QFileDialog.getOpenFileName = staticmethod(lambda *args, **kwargs: (bad, ""))
-    before, seen, documents = report_view_text(), len(watcher.texts), sorted(FreeCAD.listDocuments())
+    names, documents = sorted(o.Name for o in doc.Objects), sorted(FreeCAD.listDocuments())
+    before, seen = report_view_text(), len(watcher.texts)
     run_command("Sagitta_Import")
     added = report_view_text()[len(before):].strip()
     check(len(watcher.texts) == seen + 1 and "malformed.bpt" in watcher.texts[-1],
@@ -192,32 +223,32 @@ def check_defects(watcher):
     check(sorted(FreeCAD.listDocuments()) == documents and sorted(o.Name for o in doc.Objects) == names,
           "a malformed .bpt changes nothing")
 
+
+def colours_after_reopen(watcher, ctx):
+    tess = ctx["tess"]
     run_command("Sagitta_Validate", tess)
     FreeCADGui.Control.closeDialog()
-    face.ViewObject.Visibility = False
-    disk.ViewObject.Visibility = False
+    ctx["face"].ViewObject.Visibility = False
+    ctx["disk"].ViewObject.Visibility = False
     FreeCADGui.Selection.clearSelection()
-    view = FreeCADGui.ActiveDocument.ActiveView
-    view.viewIsometric()
-    view.fitAll()
-    process_events(20)
     shot = os.path.join(os.environ["HOME"], "colours.png")
-    coloured = coloured_fraction(view, shot)
+
+    def fraction():
+        view = FreeCADGui.ActiveDocument.ActiveView
+        view.viewIsometric()
+        view.fitAll()
+        process_events(20)
+        return coloured_fraction(view, shot)
+    coloured = fraction()
     check(coloured > 0.05 and tess.ViewObject.Coloring, "Validate colours the mesh (%.3f of the view)" % coloured)
-    path, name = os.path.join(os.environ["HOME"], "defects.FCStd"), tess.Name
-    doc.saveAs(path)
-    FreeCAD.closeDocument(doc.Name)
+    path = os.path.join(os.environ["HOME"], "defects.FCStd")
+    ctx["doc"].saveAs(path)
+    FreeCAD.closeDocument(ctx["doc"].Name)
     process_events(20)
-    doc = FreeCAD.openDocument(path)
+    ctx["doc"] = FreeCAD.openDocument(path)
     process_events(20)
-    view = FreeCADGui.ActiveDocument.ActiveView
-    view.viewIsometric()
-    view.fitAll()
-    process_events(20)
-    reopened = coloured_fraction(view, shot)
+    reopened = fraction()
     check(reopened > 0.5 * coloured, "the error colours are back after save + reopen (%.3f)" % reopened)
-    FreeCAD.closeDocument(doc.Name)
-    process_events(20)
 
 
 def check_whole_part(watcher):
