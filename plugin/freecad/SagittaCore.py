@@ -754,6 +754,15 @@ def check_target_error(target_error):
         raise SagittaError("The target error must be a finite number > 0 (model units), got %r" % (target_error,))
 
 
+def fit_parameters_text(result):
+    """The parameters a fit result chose, in property names."""
+    if result["scheme"] == "uniform":
+        return "Segments = %d" % result["segments"]
+    if result["scheme"] == "esc":
+        return "Level = %d, Threshold = %g" % (result["level"], result["threshold"])
+    return "Level = %d, BaseLevel = %d" % (result["level"], result["base_level"])
+
+
 def fit_tessellation(obj, target_error):
     """Fits the feature's scheme to a certified target error with the library's fit (`sagitta fit`)
     and sets the chosen parameters (uniform: Segments; esc: Level and Threshold; pn: Level and
@@ -771,8 +780,10 @@ def fit_tessellation(obj, target_error):
     except ValueError as error:
         raise SagittaError(str(error))
     if not result["met"]:
-        raise SagittaError("The %s scheme cannot meet the target %g (best certified error %s)"
-                           % (obj.Scheme, target_error, result["certified_error"]))
+        # The fit's last parameters, not a best possible error: finer ones may do better.
+        raise SagittaError("The %s scheme did not meet the target %g: the fit stopped at %s (%d triangles), "
+                           "certified error %.6g" % (obj.Scheme, target_error, fit_parameters_text(result),
+                                                     result["triangles"], result["certified_error"]))
     values = {"TargetError": target_error}
     if obj.Scheme == "uniform":
         values["Segments"] = result["segments"]

@@ -570,6 +570,13 @@ class HeadlessTest(unittest.TestCase):
                     SagittaCore.fit_tessellation(obj, target)
                 self.assertIn("finite number > 0", str(refused.exception))
                 self.assertEqual((obj.Segments, obj.Level, obj.TargetError), (0, 1, 0.01))
+        # Unreachable: the message gives the fit's last parameters and their certified error, not a
+        # "best" error (finer parameters may do better); nothing is changed.
+        with self.assertRaises(SagittaCore.SagittaError) as refused:
+            SagittaCore.fit_tessellation(obj, 1e-9)
+        self.assertIn("the fit stopped at Segments = ", str(refused.exception))
+        self.assertNotIn("best", str(refused.exception))
+        self.assertEqual((obj.Segments, obj.Level, obj.TargetError), (0, 1, 0.01))
 
     def test_import_rejects_malformed_file(self):
         bad = os.path.join(WORK, "bad.bpt")
