@@ -293,7 +293,11 @@ class TessellationFeature:
             for key in PARAMETERS:
                 if getattr(obj, key) != kept[key]:
                     setattr(obj, key, kept[key])
-            self.build(obj)
+            try:
+                self.build(obj)
+            except SagittaError as again:  # the source fails now too: Invalid
+                self.error = in_property_words(again)
+                raise SagittaError(self.error)
         self.kept = parameter_values(obj)
 
     def build(self, obj):

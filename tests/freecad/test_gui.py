@@ -133,13 +133,14 @@ def creation_panel_cancel_and_ok(watcher, ctx):
     import SagittaCore
     import SagittaGui
     doc = ctx["doc"]
-    names = sorted(o.Name for o in doc.Objects)
+    names, undo_count = sorted(o.Name for o in doc.Objects), doc.UndoCount
     run_command("Sagitta_Tessellate", ctx["face"])
     check(isinstance(SagittaGui.active_panel, SagittaGui.TessellatePanel) and len(doc.Objects) == len(names) + 1,
           "Tessellate adds a feature and opens its panel")
     SagittaGui.active_panel.reject()
     process_events()
-    check(sorted(o.Name for o in doc.Objects) == names, "Cancel in the creation panel removes the new feature")
+    check(sorted(o.Name for o in doc.Objects) == names and doc.UndoCount == undo_count,
+          "Cancel in the creation panel removes the new feature, no Undo step left (%d)" % (doc.UndoCount - undo_count))
     run_command("Sagitta_Tessellate", ctx["face"])
     SagittaGui.active_panel.level.setValue(3)
     check(SagittaGui.active_panel.accept() is True, "OK in the creation panel keeps the feature")
