@@ -6,7 +6,9 @@ goes into new or Sagitta-owned objects, inside a document transaction so that Un
 
 This module never imports SagittaGui (the GUI imports it, not the reverse): the GUI command gives the
 feature that make_tessellation returns its view provider."""
+import math
 import os
+import re
 import tempfile
 import time
 
@@ -23,6 +25,21 @@ PARAM_PATH = "User parameter:BaseApp/Preferences/Mod/Sagitta"
 
 class SagittaError(Exception):
     """A problem the user can act on (bad selection, unsupported face, invalid parameter)."""
+
+
+# The library words its refusals for the command line; the feature's users edit properties.
+OPTION_PROPERTIES = {"level": "Level", "segments": "Segments", "threshold": "Threshold", "base-level": "BaseLevel",
+                     "target-error": "TargetError", "max-depth": "validation depth budget (preferences)",
+                     "max-triangles": "the triangle limit"}
+
+
+def in_property_words(text):
+    """A library message with its command-line options (`--level L`, `--threshold RHO`) named as the
+    feature's properties (Level, Threshold), on one line."""
+    def name(match):
+        return OPTION_PROPERTIES.get(match.group(1), match.group(0))
+    text = re.sub(r"--([a-z]+(?:-[a-z]+)*)(?: [A-Z]+\b(?! \+))?", name, str(text))
+    return " ".join(text.split())
 
 
 def preferences():
@@ -51,13 +68,36 @@ def source_faces(links):
         shape = getattr(obj, "Shape", None)
         if shape is None or shape.isNull() or not shape.Faces:
             raise SagittaError("%s has no faces to tessellate" % obj.Label)
-        names = [s for s in subs if s.startswith("Face")] if subs else []
+        names = selected_face_names(subs)
         if names:
             faces = [(n, shape.getElement(n)) for n in names]
         else:
             faces = [("Face%d" % (k + 1), f) for k, f in enumerate(shape.Faces)]
         out.append((obj.Label, faces))
     return out
+
+
+def selected_face_names(subs):
+    """The face names among a selection's sub-elements, each once, in selection order."""
+    names = []
+    for sub in subs or []:
+        if sub.startswith("Face") and sub not in names:
+            names.append(sub)
+    return names
+
+
+def freecad_face_names(links):
+    """FreeCAD's name of each face Sagitta reads from `links`, in the order the library numbers them
+    (face_index): "Face2" as the selection shows it; "Label.Face2" when several objects are linked."""
+    groups = source_faces(links)
+    qualify = len(groups) > 1
+    return [("%s.%s" % (label, name)) if qualify else name for label, faces in groups for name, _ in faces]
+
+
+def face_note_name(face, names):
+    """The FreeCAD name of a library face report (its face_index into `names`)."""
+    index = face.get("face_index", -1)
+    return names[index] if 0 <= index < len(names) else face["name"]
 
 
 def shape_model(links, name="selection"):
@@ -71,7 +111,8 @@ def shape_model(links, name="selection"):
         cad = _sagitta.read_brep_string(Part.makeCompound(faces).exportBrepToString(), name)
     except ValueError as error:
         raise SagittaError(str(error))
-    notes = ["%s: %s%s" % (f["name"], f["status"], (" (" + f["reason"] + ")") if f["reason"] else "")
+    names = freecad_face_names(links)
+    notes = ["%s: %s%s" % (face_note_name(f, names), f["status"], (" (" + f["reason"] + ")") if f["reason"] else "")
              for f in cad["faces"]]
     if cad["model"].patch_count == 0:
         raise SagittaError("%s: no face could be converted: %s" % (name, "; ".join(notes)))
@@ -105,7 +146,7 @@ def part_brep_text(links):
         shape = getattr(obj, "Shape", None)
         if shape is None or shape.isNull() or not shape.Faces:
             raise SagittaError("%s has no faces to tessellate" % obj.Label)
-        names = [s for s in subs if s.startswith("Face")] if subs else []
+        names = selected_face_names(subs)
         if names:
             copy = shape.copy()
             shapes.append(Part.makeCompound([copy.getElement(n) for n in names]))
@@ -133,15 +174,16 @@ def mesh_part(links, name, params):
         raise SagittaError(str(error))
 
 
-def part_face_notes(part):
-    """One line per B-rep face: what became of it."""
+def part_face_notes(part, names):
+    """One line per B-rep face, named as FreeCAD names it (`names`: freecad_face_names): what became of it."""
     notes = []
     for f in part.faces:
         kind = f["surface_type"] + (", trimmed" if f["trimmed"] else "")
+        name = face_note_name(f, names)
         if f["status"] == "tessellated":
-            notes.append("%s (%s): tessellated, %d triangles" % (f["name"], kind, f["triangles"]))
+            notes.append("%s (%s): tessellated, %d triangles" % (name, kind, f["triangles"]))
         else:
-            notes.append("%s (%s): skipped (%s)" % (f["name"], kind, f["reason"]))
+            notes.append("%s (%s): skipped (%s)" % (name, kind, f["reason"]))
     return notes
 
 
@@ -178,14 +220,16 @@ STAT_PROPERTIES = [
     ("App::PropertyFloat", "TessellationSeconds", "Time the scheme took"),
     ("App::PropertyStringList", "SourceFaces", "What became of each source face"),
     ("App::PropertyFloat", "ErrorLower", "Certified lower bound of the Hausdorff distance (after Validate)"),
-    ("App::PropertyFloat", "ErrorUpper", "Certified upper bound of the Hausdorff distance (after Validate)"),
+    ("App::PropertyFloat", "ErrorUpper",
+     "Certified upper bound of the Hausdorff distance (after Validate); inf when none is certified (see Certification)"),
     ("App::PropertyString", "TopologyVerdict", "Watertightness verdict (after Validate)"),
     ("App::PropertyColorList", "FaceColors",
      "Per-triangle colours: the certified error (after Validate); a whole part's B-rep faces"),
     ("App::PropertyBool", "WholePart", "The source is a part (solids or shells): meshed whole, watertight across faces"),
     ("App::PropertyString", "PartSummary", "Whole part: faces, trimmed faces, solids"),
     ("App::PropertyIntegerList", "TriangleFace", "Whole part: per triangle, the index of its B-rep face (0-based)"),
-    ("App::PropertyString", "Certification", "Whether the error interval is certified (after Validate)"),
+    ("App::PropertyString", "Certification",
+     "certified, not certified (why), or not validated: whether ErrorUpper is a certified bound"),
 ]
 
 
@@ -226,8 +270,37 @@ class TessellationFeature:
             mesh = obj.Mesh.copy()
             add_face_segments(mesh, obj.TriangleFace)
             obj.Mesh = mesh
+        if "Invalid" not in obj.State:
+            self.kept = parameter_values(obj)
 
     def execute(self, obj):
+        """Rebuilds the mesh (build). When the library refuses the parameters (an edit in the property
+        editor or a panel), the report view gets one line in property names, the last parameters that
+        worked are set back and the mesh is theirs: the feature stays valid, its values and mesh agree.
+        With no such parameters, or when the source itself fails, the feature is Invalid. The refusal
+        is kept in self.error for edit_tessellation."""
+        self.error = None
+        try:
+            self.build(obj)
+        except SagittaError as error:
+            self.error = in_property_words(error)
+            kept = getattr(self, "kept", None)
+            if kept is None or kept == parameter_values(obj):
+                raise SagittaError(self.error)
+            FreeCAD.Console.PrintError("Sagitta: %s: %s; back to %s\n" % (
+                obj.Label, self.error, ", ".join("%s = %s" % (k, kept[k]) for k in PARAMETERS
+                                                 if kept[k] != getattr(obj, k))))
+            for key in PARAMETERS:
+                if getattr(obj, key) != kept[key]:
+                    setattr(obj, key, kept[key])
+            try:
+                self.build(obj)
+            except SagittaError as again:  # the source fails now too: Invalid
+                self.error = in_property_words(again)
+                raise SagittaError(self.error)
+        self.kept = parameter_values(obj)
+
+    def build(self, obj):
         """Rebuilds the mesh from the source; clears validation results (they belong to the old mesh).
         A part source (solids or shells) is meshed whole (mesh_part_brep): one mesh segment and one
         TriangleFace entry per B-rep face; other sources go through the patch model."""
@@ -239,7 +312,7 @@ class TessellationFeature:
             obj.Vertices = part.mesh.vertex_count
             obj.DegenerateTriangles = part.mesh.degenerate_triangles
             obj.TessellationSeconds = part.seconds
-            obj.SourceFaces = part_face_notes(part)
+            obj.SourceFaces = part_face_notes(part, freecad_face_names(obj.Source))
             obj.WholePart = True
             obj.PartSummary = part_summary(part)
             obj.TriangleFace = part.triangle_face.tolist()
@@ -259,9 +332,9 @@ class TessellationFeature:
             obj.TriangleFace = []
             obj.FaceColors = []
         obj.ErrorLower = 0.0
-        obj.ErrorUpper = 0.0
+        obj.ErrorUpper = math.inf
         obj.TopologyVerdict = ""
-        obj.Certification = ""
+        obj.Certification = NOT_VALIDATED
 
     def __getstate__(self):
         return None
@@ -270,8 +343,22 @@ class TessellationFeature:
         return None
 
 
+# The parameters a user edits; the fit sets them too.
+PARAMETERS = ("Scheme", "Level", "Segments", "BaseLevel", "Threshold")
+NOT_VALIDATED = "not validated"
+
+
+def parameter_values(obj):
+    return {key: getattr(obj, key) for key in PARAMETERS}
+
+
 def scheme_parameters(obj):
-    """The feature's parameters as keyword arguments of _sagitta.tessellate (the CLI's options)."""
+    """The feature's parameters as keyword arguments of _sagitta.tessellate (the CLI's options).
+    Raises SagittaError for a negative Level, Segments or BaseLevel (the library reads -1 as "not
+    given", which a property always is)."""
+    for key in ("Level", "Segments", "BaseLevel"):
+        if getattr(obj, key) < 0:
+            raise SagittaError("%s must be >= 0, got %d" % (key, getattr(obj, key)))
     if obj.Scheme == "uniform" and obj.Segments > 0:
         return {"scheme": "uniform", "segments": obj.Segments}
     params = {"scheme": obj.Scheme, "level": obj.Level}
@@ -330,24 +417,28 @@ def is_tessellation(obj):
     return obj is not None and isinstance(getattr(obj, "Proxy", None), TessellationFeature)
 
 
-def _transaction(doc, title, work):
-    """Runs work() inside a document transaction: committed when it succeeds, aborted (the document
-    left as it was) when it raises."""
+def _transaction(doc, title, work, commit=True):
+    """Runs work() inside a document transaction: committed when it succeeds (left open with
+    commit=False), aborted (the document left as it was) when it raises."""
     doc.openTransaction(title)
     try:
         result = work()
     except Exception:
         doc.abortTransaction()
         raise
-    doc.commitTransaction()
+    if commit:
+        doc.commitTransaction()
     return result
 
 
-def make_tessellation(doc, links, scheme=None, level=None, threshold=None, base_level=None, target_error=None):
+def make_tessellation(doc, links, scheme=None, level=None, threshold=None, base_level=None, target_error=None,
+                      commit=True):
     """Creates a tessellation feature of `links` [(object, [sub-element names])] in one transaction
     and recomputes it. Parameters left None come from the preferences. Raises SagittaError (and
     leaves the document unchanged) for an empty selection, unsupported faces or bad parameters.
-    The feature has FreeCAD's default mesh view; SagittaGui.attach_view_provider adds the workbench's."""
+    commit=False leaves the transaction open: the caller commits it (the creation panel's OK) or
+    aborts it (its Cancel: no feature). The feature has FreeCAD's default mesh view;
+    SagittaGui.attach_view_provider adds the workbench's."""
     if not links:
         raise SagittaError("Select Part objects or faces to tessellate")
     prefs = preferences()
@@ -369,21 +460,37 @@ def make_tessellation(doc, links, scheme=None, level=None, threshold=None, base_
         obj.TargetError = prefs["target_error"] if target_error is None else target_error
         obj.recompute()
         if "Invalid" in obj.State:
-            raise SagittaError("Tessellation failed; see the report view")
+            raise SagittaError(getattr(obj.Proxy, "error", None) or "Tessellation failed; see the report view")
         return obj
-    return _transaction(doc, "Sagitta tessellate", work)
+    return _transaction(doc, "Sagitta tessellate", work, commit)
 
 
 def edit_tessellation(obj, **values):
     """Sets feature parameters (Scheme, Level, Segments, Threshold, BaseLevel, TargetError) and recomputes, in
-    one transaction; on failure the old values are restored."""
-    def work():
-        for key, value in values.items():
-            setattr(obj, key, value)
+    one transaction. When they are refused, the old values and their mesh are back, the feature is not
+    left Invalid, and SagittaError says why in property names."""
+    try:
+        _transaction(obj.Document, "Sagitta edit tessellation", lambda: apply_parameters(obj, values))
+    except SagittaError:
+        if ("Touched" in obj.State or "Invalid" in obj.State) and obj.recompute():
+            obj.purgeTouched()  # the aborted transaction set the values back: their mesh, up to date
+        raise
+
+
+def apply_parameters(obj, values):
+    """Sets feature parameters and recomputes, outside any transaction of its own (the creation panel
+    edits inside the creation's). On refusal: the old values back, recomputed, SagittaError raised."""
+    old = {key: getattr(obj, key) for key in values}
+    for key, value in values.items():
+        setattr(obj, key, value)
+    obj.recompute()
+    error = getattr(obj.Proxy, "error", None)
+    if "Invalid" in obj.State or error:
+        for key, value in old.items():
+            if getattr(obj, key) != value:
+                setattr(obj, key, value)
         obj.recompute()
-        if "Invalid" in obj.State:
-            raise SagittaError("Tessellation failed with these parameters; see the report view")
-    _transaction(obj.Document, "Sagitta edit tessellation", work)
+        raise SagittaError(error or "Tessellation failed with these parameters; see the report view")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -424,7 +531,7 @@ def validate_tessellation(obj, max_depth=None):
 
     def work():
         obj.ErrorLower = report["hausdorff"]["lower"]
-        obj.ErrorUpper = report["hausdorff"]["upper"] or 0.0
+        obj.ErrorUpper = certified_upper(report["hausdorff"])
         obj.TopologyVerdict = verdict_text(report)
         obj.Certification = "certified" if report["certified"] else "not certified"
         obj.FaceColors = error_colours(errors.tolist(), report["colour_scale_top"])
@@ -433,6 +540,13 @@ def validate_tessellation(obj, max_depth=None):
     if FreeCAD.GuiUp:
         obj.ViewObject.Coloring = True
     return report
+
+
+def certified_upper(interval):
+    """The interval's upper bound when it is certified, else inf: never below the lower bound, and
+    never a number that could be read as a certified error."""
+    upper = interval["upper"]
+    return upper if upper is not None and interval["upper_certified"] else math.inf
 
 
 # Why a whole part's distance is not certified yet: the certified validator works on whole Bézier
@@ -468,7 +582,7 @@ def validate_part(obj):
 
     def work():
         obj.ErrorLower = 0.0
-        obj.ErrorUpper = 0.0
+        obj.ErrorUpper = math.inf
         obj.TopologyVerdict = part_verdict_text(report)
         obj.Certification = report["distance"]
         obj.purgeTouched()
@@ -532,15 +646,32 @@ def validate_mesh_object(mesh_obj, links, max_depth=None):
 def freecad_mesh_of(doc, links, linear_deflection=0.1, angular_deflection=0.5):
     """FreeCAD's own tessellation (MeshPart) of the linked shapes as a new Mesh feature, in a
     transaction: what Validate compares with ours."""
+    return _transaction(doc, "Sagitta FreeCAD mesh",
+                        lambda: _add_freecad_mesh(doc, links, linear_deflection, angular_deflection))
+
+
+def _add_freecad_mesh(doc, links, linear_deflection, angular_deflection):
     import MeshPart
     shapes = [o.Shape if not subs else Part.makeCompound([o.Shape.getElement(s) for s in subs]) for o, subs in links]
+    obj = doc.addObject("Mesh::Feature", "FreeCADMesh")
+    obj.Mesh = MeshPart.meshFromShape(Shape=Part.makeCompound(shapes), LinearDeflection=linear_deflection,
+                                      AngularDeflection=angular_deflection, Relative=False)
+    obj.recompute()
+    return obj
 
+
+def validate_freecad_mesh(doc, links, max_depth=None, linear_deflection=0.1, angular_deflection=0.5):
+    """Validate of a Part object alone: FreeCAD's own mesh of it (freecad_mesh_of) certified against
+    it, in one transaction. Returns (mesh object, report); when the validation is refused the mesh is
+    not kept (the document is left as it was) and SagittaError says why."""
     def work():
-        obj = doc.addObject("Mesh::Feature", "FreeCADMesh")
-        obj.Mesh = MeshPart.meshFromShape(Shape=Part.makeCompound(shapes), LinearDeflection=linear_deflection,
-                                          AngularDeflection=angular_deflection, Relative=False)
-        return obj
-    return _transaction(doc, "Sagitta FreeCAD mesh", work)
+        mesh_obj = _add_freecad_mesh(doc, links, linear_deflection, angular_deflection)
+        try:
+            return mesh_obj, validate_mesh_object(mesh_obj, links, max_depth)
+        except Exception:
+            doc.removeObject(mesh_obj.Name)  # also without undo (the abort then restores nothing)
+            raise
+    return _transaction(doc, "Sagitta validate FreeCAD mesh", work)
 
 
 def verdict_text(report):
@@ -621,6 +752,21 @@ def _write_atomically(path, text):
 # ---------------------------------------------------------------------------------------------
 # Fitting
 
+def check_target_error(target_error):
+    """Raises SagittaError unless the target is a finite number > 0 (no clamping: 0 is refused)."""
+    if not (isinstance(target_error, (int, float)) and math.isfinite(target_error) and target_error > 0):
+        raise SagittaError("The target error must be a finite number > 0 (model units), got %r" % (target_error,))
+
+
+def fit_parameters_text(result):
+    """The parameters a fit result chose, in property names."""
+    if result["scheme"] == "uniform":
+        return "Segments = %d" % result["segments"]
+    if result["scheme"] == "esc":
+        return "Level = %d, Threshold = %g" % (result["level"], result["threshold"])
+    return "Level = %d, BaseLevel = %d" % (result["level"], result["base_level"])
+
+
 def fit_tessellation(obj, target_error):
     """Fits the feature's scheme to a certified target error with the library's fit (`sagitta fit`)
     and sets the chosen parameters (uniform: Segments; esc: Level and Threshold; pn: Level and
@@ -631,16 +777,17 @@ def fit_tessellation(obj, target_error):
     if obj.WholePart:
         raise SagittaError("%s is a whole part: its error is %s, so it cannot be fitted to a certified target"
                            % (obj.Label, PART_NOT_CERTIFIED))
-    if not target_error > 0:
-        raise SagittaError("The target error must be > 0")
+    check_target_error(target_error)
     model, _ = shape_model(obj.Source, obj.Label)
     try:
         result = _sagitta.fit(model, obj.Scheme, target_error)
     except ValueError as error:
         raise SagittaError(str(error))
     if not result["met"]:
-        raise SagittaError("The %s scheme cannot meet the target %g (best certified error %s)"
-                           % (obj.Scheme, target_error, result["certified_error"]))
+        # The fit's last parameters, not a best possible error: finer ones may do better.
+        raise SagittaError("The %s scheme did not meet the target %g: the fit stopped at %s (%d triangles), "
+                           "certified error %.6g" % (obj.Scheme, target_error, fit_parameters_text(result),
+                                                     result["triangles"], result["certified_error"]))
     values = {"TargetError": target_error}
     if obj.Scheme == "uniform":
         values["Segments"] = result["segments"]

@@ -10,6 +10,7 @@ import FreeCADGui
 from PySide import QtCore, QtGui
 
 import SagittaCore
+import SagittaImport
 
 ICONS = os.path.join(os.path.dirname(__file__), "icons")
 active_panel = None  # the open Sagitta task panel (scripts and tests reach it here)
@@ -22,9 +23,10 @@ def icon(name):
 def report_error(title, error):
     """Shows a problem as a FreeCAD message: the report view always, a dialog in the GUI.
     Unexpected exceptions also leave their traceback in the report view."""
-    text = str(error) if isinstance(error, SagittaCore.SagittaError) else "%s: %s" % (type(error).__name__, error)
+    expected = isinstance(error, (SagittaCore.SagittaError, SagittaImport.PatchFileError))
+    text = str(error) if expected else "%s: %s" % (type(error).__name__, error)
     FreeCAD.Console.PrintError("Sagitta %s: %s\n" % (title, text))
-    if not isinstance(error, SagittaCore.SagittaError):
+    if not expected:
         FreeCAD.Console.PrintLog(traceback.format_exc())
     if not os.environ.get("SAGITTA_NO_DIALOGS"):
         QtGui.QMessageBox.warning(FreeCADGui.getMainWindow(), "Sagitta " + title, text)
@@ -41,6 +43,8 @@ def selected_links():
 
 def show_panel(panel):
     global active_panel
+    if isinstance(active_panel, TessellatePanel):
+        active_panel.release()
     FreeCADGui.Control.closeDialog()
     active_panel = panel
     FreeCADGui.Control.showDialog(panel)
@@ -67,10 +71,15 @@ class ViewProviderTessellation:
     def updateData(self, obj, prop):
         """FreeCAD's mesh view reads the per-facet colours when Coloring is switched on, not when they
         change: re-applies them when a recompute gives new ones (a whole part's face colours)."""
-        vobj = getattr(obj, "ViewObject", None)
-        if prop == "FaceColors" and vobj is not None and vobj.Coloring and len(obj.FaceColors) == obj.Mesh.CountFacets:
-            vobj.Coloring = False
-            vobj.Coloring = True
+        if prop == "FaceColors":
+            refresh_colours(obj)
+
+    def finishRestoring(self):
+        """A reopened document: the view's Coloring is restored before the colours reach the mesh view,
+        which then shows grey; re-applies them once the document is loaded."""
+        obj = getattr(self, "Object", None)
+        if obj is not None:
+            refresh_colours(obj)
 
     def setEdit(self, vobj, mode=0):
         if mode != 0:
@@ -90,6 +99,14 @@ class ViewProviderTessellation:
 
     def __setstate__(self, state):
         return None
+
+
+def refresh_colours(obj):
+    """Makes the mesh view show the feature's per-triangle colours (FaceColors) when Coloring is on."""
+    vobj = getattr(obj, "ViewObject", None)
+    if vobj is not None and vobj.Coloring and len(obj.FaceColors) == obj.Mesh.CountFacets > 0:
+        vobj.Coloring = False
+        vobj.Coloring = True
 
 
 def attach_view_provider(obj):
@@ -113,10 +130,13 @@ def _form(title):
 
 
 class TessellatePanel:
-    """Parameters of a tessellation feature; OK applies them (one Undo step), Cancel leaves it."""
+    """Parameters of a tessellation feature; OK applies them (one Undo step), Cancel leaves it. The
+    panel of a feature just created (creating=True) runs inside the creation's open transaction: OK
+    commits it with the parameters (one Undo step), Cancel aborts it (no feature)."""
 
-    def __init__(self, obj):
+    def __init__(self, obj, creating=False):
         self.obj = obj
+        self.creating = creating
         self.form, layout = _form("Sagitta tessellation")
         self.scheme = QtGui.QComboBox()
         self.scheme.addItems(SagittaCore.SCHEMES)
@@ -149,18 +169,37 @@ class TessellatePanel:
         return text + ("\nWhole part: " + o.PartSummary if o.WholePart else "")
 
     def accept(self):
+        values = {"Scheme": self.scheme.currentText(), "Level": self.level.value(), "Segments": self.segments.value(),
+                  "BaseLevel": self.base_level.value(), "Threshold": self.threshold.value()}
         try:
-            SagittaCore.edit_tessellation(self.obj, Scheme=self.scheme.currentText(), Level=self.level.value(),
-                                          Segments=self.segments.value(), BaseLevel=self.base_level.value(), Threshold=self.threshold.value())
+            if self.creating:
+                SagittaCore.apply_parameters(self.obj, values)
+            else:
+                SagittaCore.edit_tessellation(self.obj, **values)
         except Exception as error:
+            self.stats.setText(self.stats_text())
             report_error("Tessellate", error)
             return False
+        self.release()
         close_panel()
         return True
 
     def reject(self):
+        if self.creating:
+            self.creating = False
+            doc, name = self.obj.Document, self.obj.Name
+            doc.abortTransaction()
+            if doc.getObject(name) is not None:  # a document without undo keeps it: remove it
+                doc.removeObject(name)
+            doc.recompute()
         close_panel()
         return True
+
+    def release(self):
+        """Commits the creation's transaction (OK, or another panel replacing this one)."""
+        if self.creating:
+            self.creating = False
+            self.obj.Document.commitTransaction()
 
 
 class LegendWidget(QtGui.QWidget):
@@ -265,15 +304,15 @@ class ValidatePanel:
 
 
 class FitPanel:
-    """Asks for the target error; OK runs the fit and sets the feature's level/threshold."""
+    """Asks for the target error; OK runs the fit and sets the feature's level/threshold. The target
+    is typed as a number (any precision, nothing clamped); 0, negative or non-finite is refused."""
 
     def __init__(self, obj):
         self.obj = obj
         self.form, layout = _form("Sagitta fit to target error")
-        self.target = QtGui.QDoubleSpinBox()
-        self.target.setDecimals(6)
-        self.target.setRange(1e-6, 1e6)
-        self.target.setValue(obj.TargetError if obj.TargetError > 0 else SagittaCore.preferences()["target_error"])
+        self.target = QtGui.QLineEdit()
+        self.target.setText("%g" % (obj.TargetError if obj.TargetError > 0 else SagittaCore.preferences()["target_error"]))
+        self.target.setToolTip("The certified error wanted, in model units (a number > 0, e.g. 0.01 or 1e-4)")
         layout.addRow(QtGui.QLabel("<b>%s</b> (%s scheme)" % (obj.Label, obj.Scheme)))
         layout.addRow("Target error", self.target)
         self.result = QtGui.QLabel("")
@@ -283,7 +322,7 @@ class FitPanel:
         try:
             QtGui.QApplication.setOverrideCursor(QtCore.Qt.WaitCursor)
             try:
-                result = SagittaCore.fit_tessellation(self.obj, self.target.value())
+                result = SagittaCore.fit_tessellation(self.obj, self.target_value())
             finally:
                 QtGui.QApplication.restoreOverrideCursor()
         except Exception as error:
@@ -293,6 +332,14 @@ class FitPanel:
             self.obj.Label, result["triangles"], result["certified_error"]))
         close_panel()
         return True
+
+    def target_value(self):
+        """The typed target; SagittaError when it is not a number."""
+        text = self.target.text().strip()
+        try:
+            return float(text)
+        except ValueError:
+            raise SagittaCore.SagittaError("The target error must be a number > 0 (model units), got %r" % text)
 
     def reject(self):
         close_panel()
@@ -323,11 +370,17 @@ class TessellateCommand:
     def Activated(self):
         try:
             links = [(o, s) for o, s in selected_links() if not SagittaCore.is_tessellation(o)]
-            obj = SagittaCore.make_tessellation(FreeCAD.ActiveDocument, links)
-            attach_view_provider(obj)
-            FreeCADGui.Selection.clearSelection()
-            FreeCADGui.Selection.addSelection(obj)
-            show_panel(TessellatePanel(obj))
+            doc = FreeCAD.ActiveDocument
+            obj = SagittaCore.make_tessellation(doc, links, commit=False)  # the panel's OK or Cancel ends it
+            panel = TessellatePanel(obj, creating=True)
+            try:
+                attach_view_provider(obj)
+                FreeCADGui.Selection.clearSelection()
+                FreeCADGui.Selection.addSelection(obj)
+            except Exception:
+                panel.reject()
+                raise
+            show_panel(panel)
         except Exception as error:
             report_error("Tessellate", error)
 
@@ -355,11 +408,11 @@ class ValidateCommand:
             if not shapes:
                 raise SagittaCore.SagittaError(
                     "Select a Sagitta tessellation, or a Mesh object and the Part object it approximates, or a Part object")
-            if not meshes:
-                meshes = [SagittaCore.freecad_mesh_of(FreeCAD.ActiveDocument, shapes)]
-                FreeCAD.ActiveDocument.recompute()
-            report = SagittaCore.validate_mesh_object(meshes[0], shapes)
-            show_panel(ValidatePanel(meshes[0].Label, report))
+            if meshes:
+                mesh, report = meshes[0], SagittaCore.validate_mesh_object(meshes[0], shapes)
+            else:  # FreeCAD's own mesh of the part; not kept when the validation is refused
+                mesh, report = SagittaCore.validate_freecad_mesh(FreeCAD.ActiveDocument, shapes)
+            show_panel(ValidatePanel(mesh.Label, report))
         except Exception as error:
             report_error("Validate", error)
 
@@ -396,11 +449,7 @@ class ImportCommand:
             path, _ = QtGui.QFileDialog.getOpenFileName(FreeCADGui.getMainWindow(), "Import Bézier patches", "",
                                                         "Bézier patches (*.bpt *.rib)")
             if path:
-                import SagittaImport
-                if FreeCAD.ActiveDocument is None:
-                    SagittaImport.open(path)
-                else:
-                    SagittaImport.insert(path, FreeCAD.ActiveDocument.Name)
+                SagittaImport.load(path, FreeCAD.ActiveDocument)  # raises, changing nothing, on a bad file
                 FreeCADGui.SendMsgToActiveView("ViewFit")
         except Exception as error:
             report_error("Import", error)

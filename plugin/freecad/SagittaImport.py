@@ -24,14 +24,17 @@ def patch_face(patch):
     return Part.Face(surface)
 
 
-def import_file(path, doc):
+class PatchFileError(ValueError):
+    """A patch file that cannot be imported (unreadable, malformed); the message names the file."""
+
+
+def add_patches(path, doc):
     """Reads the file (the patch readers' checks apply) and adds one Part::Feature in a transaction.
-    Errors are FreeCAD messages; the document is unchanged when the file is rejected."""
+    Raises PatchFileError, the document unchanged, when the file is rejected."""
     try:
         model = _sagitta.read_model(path)
     except ValueError as error:
-        FreeCAD.Console.PrintError("Sagitta import: %s\n" % error)
-        return None
+        raise PatchFileError(str(error))
     name = os.path.splitext(os.path.basename(path))[0]
     doc.openTransaction("Sagitta import " + name)
     try:
@@ -40,12 +43,35 @@ def import_file(path, doc):
         obj.Label = name
     except Exception as error:
         doc.abortTransaction()
-        FreeCAD.Console.PrintError("Sagitta import: %s: %s\n" % (path, error))
-        return None
+        if doc.getObject(name) is not None:
+            doc.removeObject(name)
+        raise PatchFileError("%s: %s" % (path, error))
     doc.commitTransaction()
     doc.recompute()
     FreeCAD.Console.PrintMessage("Sagitta import: %s: %d Bézier patches\n" % (path, model.patch_count))
     return obj
+
+
+def import_file(path, doc):
+    """add_patches for File → Open / Import: a rejected file is one report-view line and None."""
+    try:
+        return add_patches(path, doc)
+    except PatchFileError as error:
+        FreeCAD.Console.PrintError("Sagitta import: %s\n" % error)
+        return None
+
+
+def load(path, doc=None):
+    """The Import command: the file into `doc`, or into a new document named after it when doc is
+    None. Raises PatchFileError (no new document left behind) when the file is rejected."""
+    if doc is not None:
+        return add_patches(path, doc)
+    doc = FreeCAD.newDocument(os.path.splitext(os.path.basename(path))[0])
+    try:
+        return add_patches(path, doc)
+    except PatchFileError:
+        FreeCAD.closeDocument(doc.Name)
+        raise
 
 
 def open(filename):

@@ -69,6 +69,189 @@ def save_screenshot(view, path):
     return pixmap.save(path)
 
 
+def report_view_text():
+    """What the Report view shows now, less this test's own ok/FAILED lines."""
+    dock = FreeCADGui.getMainWindow().findChild(QtGui.QDockWidget, "Report view")
+    edit = dock.findChild(QtGui.QTextEdit) if dock else None
+    lines = edit.toPlainText().splitlines() if edit else []
+    return "\n".join(line for line in lines if " ok: " not in line and " FAILED: " not in line)
+
+
+def coloured_fraction(view, path):
+    """Fraction of the 3D view's pixels with a saturated colour (the error colours; grey has none)."""
+    view.saveImage(path, 320, 240, "White")
+    image = QtGui.QImage(path)
+    samples = [QtGui.QColor(image.pixel(x, y)) for x in range(0, image.width(), 4) for y in range(0, image.height(), 4)]
+    os.unlink(path)
+    return sum(1 for c in samples if c.saturation() > 80) / float(len(samples))
+
+
+def bezier_source(doc):
+    import Part
+    surface = Part.BezierSurface()
+    surface.increase(3, 3)
+    for i in range(4):
+        for j in range(4):
+            surface.setPole(i + 1, j + 1, FreeCAD.Vector(i, j, 0.5 * ((i * j) % 3)))
+    face = doc.addObject("Part::Feature", "BezierFace")
+    face.Shape = Part.Face(surface)
+    return face
+
+
+def run_command(name, obj=None, sub=None):
+    FreeCADGui.Selection.clearSelection()
+    if obj is not None:
+        FreeCADGui.Selection.addSelection(obj, sub) if sub else FreeCADGui.Selection.addSelection(obj)
+    FreeCADGui.runCommand(name)
+    process_events(20)
+
+
+def check_defects(watcher):
+    """Issue 18's point 5, as a user meets it, one step each (a step that raises is a failure, the
+    next ones still run): Cancel in the creation panel, a refused panel edit, a refused
+    property-editor edit, a target error of 0, a refused Validate of a Part object, a malformed .bpt
+    through the Import command, the error colours after save and reopen."""
+    import Part
+    doc = FreeCAD.newDocument("Defects")
+    ctx = {"doc": doc, "face": bezier_source(doc), "disk": doc.addObject("Part::Feature", "Disk")}
+    ctx["disk"].Shape = Part.Face(Part.Wire(Part.makeCircle(5)))  # one trimmed face: nothing to certify
+    doc.recompute()
+    for step in (creation_panel_cancel_and_ok, refused_panel_edit, refused_property_edit, fit_target_zero,
+                 refused_validate, malformed_import, colours_after_reopen):
+        try:
+            step(watcher, ctx)
+        except Exception:
+            traceback.print_exc()
+            check(False, "%s raised" % step.__name__)
+        FreeCADGui.Control.closeDialog()
+    if FreeCAD.listDocuments().get(ctx["doc"].Name) is not None:
+        FreeCAD.closeDocument(ctx["doc"].Name)
+    process_events(20)
+
+
+def creation_panel_cancel_and_ok(watcher, ctx):
+    import SagittaCore
+    import SagittaGui
+    doc = ctx["doc"]
+    names, undo_count = sorted(o.Name for o in doc.Objects), doc.UndoCount
+    run_command("Sagitta_Tessellate", ctx["face"])
+    check(isinstance(SagittaGui.active_panel, SagittaGui.TessellatePanel) and len(doc.Objects) == len(names) + 1,
+          "Tessellate adds a feature and opens its panel")
+    SagittaGui.active_panel.reject()
+    process_events()
+    check(sorted(o.Name for o in doc.Objects) == names and doc.UndoCount == undo_count,
+          "Cancel in the creation panel removes the new feature, no Undo step left (%d)" % (doc.UndoCount - undo_count))
+    run_command("Sagitta_Tessellate", ctx["face"])
+    SagittaGui.active_panel.level.setValue(3)
+    check(SagittaGui.active_panel.accept() is True, "OK in the creation panel keeps the feature")
+    tess = [o for o in doc.Objects if SagittaCore.is_tessellation(o)]
+    check(len(tess) == 1, "one feature after Cancel then OK")
+    name = tess[-1].Name
+    doc.undo()
+    check(not any(SagittaCore.is_tessellation(o) for o in doc.Objects), "creation + panel edit: one Undo step")
+    doc.redo()
+    ctx["tess"] = doc.getObject(name)
+
+
+def refused_panel_edit(watcher, ctx):
+    import SagittaCore
+    import SagittaGui
+    tess = ctx["tess"]
+    facets = tess.Mesh.CountFacets
+    tess.ViewObject.doubleClicked()
+    panel = SagittaGui.active_panel
+    panel.scheme.setCurrentIndex(SagittaCore.SCHEMES.index("pn"))
+    panel.level.setValue(0)
+    seen = len(watcher.texts)
+    check(panel.accept() is False, "a refused panel edit keeps the panel open")
+    process_events(20)
+    texts = watcher.texts[seen:]
+    check(len(texts) == 1 and "Level" in texts[0] and "--" not in texts[0], "the refusal names the property: %s" % texts)
+    check((tess.Scheme, tess.Level, tess.Mesh.CountFacets) == ("uniform", 3, facets) and "Invalid" not in tess.State,
+          "after a refused panel edit the old values and mesh are back, the feature valid (%s)" % tess.State)
+    panel.reject()
+
+
+def refused_property_edit(watcher, ctx):
+    tess = ctx["tess"]
+    before, threshold = report_view_text(), tess.Threshold
+    tess.Threshold = -1.0  # what the property editor does
+    tess.Scheme = "esc"
+    ctx["doc"].recompute()
+    process_events(20)
+    added = report_view_text()[len(before):].strip()
+    check("Traceback" not in added and "--" not in added and "Threshold" in added and len(added.splitlines()) == 1,
+          "a refused property edit: one line in property names (%r)" % added)
+    check((tess.Scheme, tess.Threshold) == ("uniform", threshold) and "Invalid" not in tess.State,
+          "a refused property edit sets the old values back")
+
+
+def fit_target_zero(watcher, ctx):
+    import SagittaGui
+    tess = ctx["tess"]
+    run_command("Sagitta_Fit", tess)
+    fit = SagittaGui.active_panel
+    fit.target.setText("0")
+    seen = len(watcher.texts)
+    check(fit.accept() is False, "Fit to target 0 is refused")
+    process_events(20)
+    check(len(watcher.texts) > seen and "> 0" in watcher.texts[-1] and tess.Segments == 0,
+          "target 0: a clear message, nothing fitted (%s)" % watcher.texts[seen:])
+    fit.reject()
+
+
+def refused_validate(watcher, ctx):
+    doc = ctx["doc"]
+    names, seen = sorted(o.Name for o in doc.Objects), len(watcher.texts)
+    run_command("Sagitta_Validate", ctx["disk"])
+    check(len(watcher.texts) > seen, "Validate of a Part object it cannot certify shows a message")
+    check(sorted(o.Name for o in doc.Objects) == names, "a refused Validate leaves no FreeCADMesh object")
+
+
+def malformed_import(watcher, ctx):
+    doc = ctx["doc"]
+    bad = os.path.join(os.environ["HOME"], "malformed.bpt")
+    with open(bad, "w") as f:
+        f.write("1\n3 3\n0 0 0\n")
+    QtGui.QFileDialog.getOpenFileName = staticmethod(lambda *args, **kwargs: (bad, ""))
+    names, documents = sorted(o.Name for o in doc.Objects), sorted(FreeCAD.listDocuments())
+    before, seen = report_view_text(), len(watcher.texts)
+    run_command("Sagitta_Import")
+    added = report_view_text()[len(before):].strip()
+    check(len(watcher.texts) == seen + 1 and "malformed.bpt" in watcher.texts[-1],
+          "a malformed .bpt through Import shows a message box (%s)" % watcher.texts[seen:])
+    check(len(added.splitlines()) == 1 and "malformed.bpt" in added, "and one report-view line (%r)" % added)
+    check(sorted(FreeCAD.listDocuments()) == documents and sorted(o.Name for o in doc.Objects) == names,
+          "a malformed .bpt changes nothing")
+
+
+def colours_after_reopen(watcher, ctx):
+    tess = ctx["tess"]
+    run_command("Sagitta_Validate", tess)
+    FreeCADGui.Control.closeDialog()
+    ctx["face"].ViewObject.Visibility = False
+    ctx["disk"].ViewObject.Visibility = False
+    FreeCADGui.Selection.clearSelection()
+    shot = os.path.join(os.environ["HOME"], "colours.png")
+
+    def fraction():
+        view = FreeCADGui.ActiveDocument.ActiveView
+        view.viewIsometric()
+        view.fitAll()
+        process_events(20)
+        return coloured_fraction(view, shot)
+    coloured = fraction()
+    check(coloured > 0.05 and tess.ViewObject.Coloring, "Validate colours the mesh (%.3f of the view)" % coloured)
+    path = os.path.join(os.environ["HOME"], "defects.FCStd")
+    ctx["doc"].saveAs(path)
+    FreeCAD.closeDocument(ctx["doc"].Name)
+    process_events(20)
+    ctx["doc"] = FreeCAD.openDocument(path)
+    process_events(20)
+    reopened = fraction()
+    check(reopened > 0.5 * coloured, "the error colours are back after save + reopen (%.3f)" % reopened)
+
+
 def check_whole_part(watcher):
     """Tessellate and Validate on a solid with holes through the commands: the whole part is meshed
     (every face, closed), Validate shows each solid's watertightness and no certified distance.
@@ -108,6 +291,7 @@ def check_whole_part(watcher):
     check(isinstance(panel, SagittaGui.ValidatePanel) and panel.report.get("kind") == "part"
           and tess.TopologyVerdict == "solid 1: closed", "Validate on a whole part: %s" % tess.TopologyVerdict)
     check(tess.Certification == "not certified (trimmed faces: issue 15)", "no certified distance claimed")
+    check(tess.ErrorUpper == float("inf") and tess.ErrorUpper >= tess.ErrorLower, "no certified upper bound stored")
     check(source.Shape.exportBrepToString() == brep, "the source shape is unchanged")
     source.ViewObject.Visibility = False
     tess.ViewObject.DisplayMode = "Flat Lines"
@@ -132,6 +316,7 @@ def run():
     for name in SagittaGui.COMMANDS:
         check(name in FreeCADGui.listCommands(), "command %s registered" % name)
     watcher = DialogWatcher()
+    check_defects(watcher)
 
     # Import through the command (its file dialog answered with the teapot).
     if not os.path.exists(TEAPOT):
@@ -188,8 +373,7 @@ def run():
     panel.accept()
     process_events()
     check(one[0].Level == 2 and one[0].Triangles + one[0].DegenerateTriangles == 2 * 4 * 4, "task panel applies the level")
-    doc.undo()  # the edit
-    doc.undo()  # the creation
+    doc.undo()  # the creation with the panel's parameters: one step
     process_events()
     check(not any(SagittaCore.is_tessellation(o) for o in doc.Objects), "Undo after Tessellate restores the document")
 
@@ -209,7 +393,7 @@ def run():
     process_events()
     fit = SagittaGui.active_panel
     check(isinstance(fit, SagittaGui.FitPanel), "Fit opens its task panel")
-    fit.target.setValue(0.02)
+    fit.target.setText("0.02")
     check(fit.accept() is True, "Fit runs")
     check(tess.TargetError == 0.02 and tess.Segments > 0, "Fit to 0.02 sets the segments (%d)" % tess.Segments)
 

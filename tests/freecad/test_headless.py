@@ -6,6 +6,7 @@ the commands use (SagittaCore), recomputed, and compared with the independent re
 `validate --json`). Also: Undo after Tessellate, wrong selections, recompute on change, the source
 never modified, the .bpt importer."""
 import json
+import math
 import os
 import subprocess
 import sys
@@ -317,7 +318,7 @@ class HeadlessTest(unittest.TestCase):
         self.assertEqual(check["euler_characteristic"], 0)  # genus 1: the hole
         self.assertEqual(obj.TopologyVerdict, "solid 1: closed")
         self.assertEqual(obj.Certification, "not certified (trimmed faces: issue 15)")
-        self.assertEqual((obj.ErrorLower, obj.ErrorUpper), (0.0, 0.0))
+        self.assertEqual((obj.ErrorLower, obj.ErrorUpper), (0.0, math.inf))  # no certified upper bound
         self.assertEqual(len(obj.FaceColors), obj.Mesh.CountFacets)  # coloured by face, not by error
         html_path = os.path.join(WORK, "part.html")
         SagittaCore.write_html_report(report, obj.Label, html_path)
@@ -469,12 +470,127 @@ class HeadlessTest(unittest.TestCase):
         self.assertEqual(corners, sorted({points[0], points[3], points[12], points[15]}))
         FreeCAD.closeDocument(doc.Name)
 
+    def test_face_names_are_freecads(self):
+        """Messages name faces as FreeCAD's selection does (a cylinder's top is Face2, not the first
+        face Sagitta read): each SourceFaces line's name has the surface type FreeCAD gives that name."""
+        doc = FreeCAD.newDocument("FaceNames")
+        cylinder = doc.addObject("Part::Feature", "Cylinder")
+        cylinder.Shape = Part.makeCylinder(5, 10)
+        doc.recompute()
+        kinds = {"Part::GeomCylinder": "Cylinder", "Part::GeomPlane": "Plane"}
+
+        def check_notes(notes, expected):
+            self.assertEqual([n.split(" ")[0].rstrip(":") for n in notes], expected)
+            for note in notes:
+                name = note.split(" ")[0].rstrip(":").split(".")[-1]
+                self.assertIn(kinds[cylinder.Shape.getElement(name).Surface.TypeId], note, note)
+        for subs, expected in ((["Face3", "Face2"], ["Face3", "Face2"]), ([], ["Face1", "Face2", "Face3"])):
+            obj = SagittaCore.make_tessellation(doc, [(cylinder, subs)], scheme="uniform", level=2)
+            check_notes(list(obj.SourceFaces), expected)
+        # The patch path: two objects, each face named with its object's label.
+        _, notes = SagittaCore.shape_model([(self.bezier, []), (cylinder, ["Face3"])])
+        self.assertEqual([n.split(":")[0] for n in notes], ["BezierFace.Face1", "Cylinder.Face3"])
+        self.assertIn("trimmed", notes[1])
+        with self.assertRaises(SagittaCore.SagittaError) as refused:  # a refusal names the face as FreeCAD does
+            SagittaCore.shape_model([(cylinder, ["Face2"])])
+        self.assertIn("Face2: trimmed", str(refused.exception))
+        FreeCAD.closeDocument(doc.Name)
+
+    def test_uncertified_upper_bound_is_never_below_the_lower(self):
+        """ErrorUpper is a certified bound or inf (before Validate, or when Validate certifies none),
+        never 0 below ErrorLower; inf survives save + reopen."""
+        doc = FreeCAD.newDocument("Uncertified")
+        face = doc.addObject("Part::Feature", "Face")
+        face.Shape = bezier_face()
+        plate = doc.addObject("Part::Feature", "Plate")
+        plate.Shape = Part.makeBox(10, 10, 2).cut(Part.makeCylinder(2, 5, FreeCAD.Vector(5, 5, -1)))
+        doc.recompute()
+        obj = SagittaCore.make_tessellation(doc, [(face, [])], scheme="uniform", level=2)
+        self.assertEqual((obj.ErrorLower, obj.ErrorUpper, obj.Certification), (0.0, math.inf, "not validated"))
+        report = SagittaCore.validate_tessellation(obj, max_depth=4)
+        self.assertTrue(report["hausdorff"]["upper_certified"])
+        self.assertEqual(obj.ErrorUpper, report["hausdorff"]["upper"])
+        part = SagittaCore.make_tessellation(doc, [(plate, [])], scheme="uniform", level=2)
+        SagittaCore.validate_tessellation(part)
+        self.assertTrue(part.Certification.startswith("not certified"))
+        self.assertEqual(part.ErrorUpper, math.inf)
+        self.assertGreaterEqual(part.ErrorUpper, part.ErrorLower)
+        self.assertEqual(SagittaCore.certified_upper({"upper": None, "upper_certified": False}), math.inf)
+        self.assertEqual(SagittaCore.certified_upper({"upper": 0.5, "upper_certified": False}), math.inf)
+        path, name = os.path.join(WORK, "uncertified.FCStd"), part.Name
+        doc.saveAs(path)
+        FreeCAD.closeDocument(doc.Name)
+        doc = FreeCAD.openDocument(path)
+        self.assertEqual(doc.getObject(name).ErrorUpper, math.inf)
+        FreeCAD.closeDocument(doc.Name)
+
+    def test_refused_edit_leaves_the_feature_valid(self):
+        """A refused edit (panel or property editor) puts the old values and their mesh back, the
+        feature not Invalid, and says why in property names, not command-line options."""
+        obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=2)
+        facets = obj.Mesh.CountFacets
+        for values in ({"Scheme": "esc", "Level": -1}, {"Scheme": "pn", "Level": 0}, {"Scheme": "esc", "Threshold": -1.0}):
+            with self.subTest(values=values):
+                with self.assertRaises(SagittaCore.SagittaError) as refused:
+                    SagittaCore.edit_tessellation(obj, **values)
+                message = str(refused.exception)
+                self.assertNotIn("--", message)
+                self.assertTrue(any(key in message for key in values if key != "Scheme"), message)
+                self.assertEqual((obj.Scheme, obj.Level, obj.Threshold), ("uniform", 2, 0.01))
+                self.assertEqual(obj.Mesh.CountFacets, facets)
+                self.assertNotIn("Invalid", obj.State)
+                self.assertNotIn("Touched", obj.State)
+        obj.Level = -1  # the property editor: set, then recompute
+        self.doc.recompute()
+        self.assertEqual((obj.Level, obj.Mesh.CountFacets), (2, facets))
+        self.assertNotIn("Invalid", obj.State)
+        self.assertEqual(SagittaCore.in_property_words("uniform scheme: give exactly one of --level L or --segments N"),
+                         "uniform scheme: give exactly one of Level or Segments")
+
+    def test_refused_validate_adds_no_mesh(self):
+        """Validate of a Part object Sagitta cannot certify (a disk: one trimmed face) is refused and
+        leaves no FreeCADMesh object behind."""
+        disk = self.doc.addObject("Part::Feature", "Disk")
+        disk.Shape = Part.Face(Part.Wire(Part.makeCircle(5)))
+        self.doc.recompute()
+        names, undo_count = sorted(o.Name for o in self.doc.Objects), self.doc.UndoCount
+        with self.assertRaises(SagittaCore.SagittaError):
+            SagittaCore.validate_freecad_mesh(self.doc, [(disk, [])])
+        self.assertEqual(sorted(o.Name for o in self.doc.Objects), names)
+        self.assertEqual(self.doc.UndoCount, undo_count)
+        mesh_obj, report = SagittaCore.validate_freecad_mesh(self.doc, [(self.bezier, [])], max_depth=4)
+        self.assertEqual(mesh_obj.TypeId, "Mesh::Feature")
+        self.assertEqual(report["triangles"], mesh_obj.Mesh.CountFacets)
+
+    def test_fit_refuses_a_target_that_is_not_a_positive_number(self):
+        obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=1)
+        for target in (0.0, -1e-3, math.inf, math.nan):
+            with self.subTest(target=target):
+                with self.assertRaises(SagittaCore.SagittaError) as refused:
+                    SagittaCore.fit_tessellation(obj, target)
+                self.assertIn("finite number > 0", str(refused.exception))
+                self.assertEqual((obj.Segments, obj.Level, obj.TargetError), (0, 1, 0.01))
+        # Unreachable: the message gives the fit's last parameters and their certified error, not a
+        # "best" error (finer parameters may do better); nothing is changed.
+        with self.assertRaises(SagittaCore.SagittaError) as refused:
+            SagittaCore.fit_tessellation(obj, 1e-9)
+        self.assertIn("the fit stopped at Segments = ", str(refused.exception))
+        self.assertNotIn("best", str(refused.exception))
+        self.assertEqual((obj.Segments, obj.Level, obj.TargetError), (0, 1, 0.01))
+
     def test_import_rejects_malformed_file(self):
         bad = os.path.join(WORK, "bad.bpt")
         with open(bad, "w") as f:
             f.write("1\n3 3\n0 0 0\n")
         doc = FreeCAD.newDocument("Bad")
         self.assertIsNone(SagittaImport.import_file(bad, doc))
+        self.assertEqual(len(doc.Objects), 0)
+        documents = sorted(FreeCAD.listDocuments())
+        for target in (doc, None):  # the Import command: an error naming the file, no new document
+            with self.assertRaises(SagittaImport.PatchFileError) as refused:
+                SagittaImport.load(bad, target)
+            self.assertIn("bad.bpt", str(refused.exception))
+        self.assertEqual(sorted(FreeCAD.listDocuments()), documents)
         self.assertEqual(len(doc.Objects), 0)
         with open(bad) as f:
             self.assertEqual(f.read(), "1\n3 3\n0 0 0\n")
