@@ -4,6 +4,7 @@
 #include "occt_shape.hpp"
 
 #include "sagitta/evaluate.hpp"
+#include "sagitta/grid_cut.hpp"
 
 #include <glm/geometric.hpp>
 
@@ -48,30 +49,6 @@ bool is_line(Handle(Geom2d_Curve) c) {
 }
 
 double cross(const Vec2& a, const Vec2& b) { return a.x * b.y - a.y * b.x; }
-
-// A vertex of a polygon clipped from a (u, v) triangle: its (u, v) and barycentric coordinates.
-struct ClipVertex {
-  Vec2 uv;
-  Vec3 b;
-};
-
-// Sutherland-Hodgman: the part of `poly` with sign * (coordinate axis - value) >= 0.
-std::vector<ClipVertex> clip(const std::vector<ClipVertex>& poly, int axis, double value, double sign) {
-  std::vector<ClipVertex> out;
-  for (size_t k = 0; k < poly.size(); ++k) {
-    const ClipVertex& a = poly[k];
-    const ClipVertex& b = poly[(k + 1) % poly.size()];
-    const double da = sign * (a.uv[axis] - value), db = sign * (b.uv[axis] - value);
-    if (da >= 0) out.push_back(a);
-    if ((da < 0 && db > 0) || (da > 0 && db < 0)) {
-      const double t = da / (da - db);
-      ClipVertex c{a.uv + t * (b.uv - a.uv), a.b + t * (b.b - a.b)};
-      c.uv[axis] = value;  // on the grid line exactly
-      out.push_back(c);
-    }
-  }
-  return out;
-}
 
 size_t cell_of(const std::vector<double>& breaks, double x) {
   const auto it = std::upper_bound(breaks.begin(), breaks.end(), x);
@@ -288,43 +265,15 @@ FaceTriangles classify_triangles(const opencascade::handle<Poly_Triangulation>& 
 // Split every (u, v) triangle along the patch grid; the pieces keep the triangle's positions
 // (X is affine in the barycentric coordinates, like (u, v)), so they tile the same mesh triangle.
 Tessellation split_along_grid(const FaceTriangles& ft, const Nodes& nd, const PatchGrid& grid) {
-  const std::vector<double>& ub = grid.ub;
-  const std::vector<double>& vb = grid.vb;
+  const sagitta::PatchGrid cells{grid.ub, grid.vb, 0.0, 0.0, grid.reversed};
   Tessellation mesh;
-  for (size_t t = 0; t < ft.tris.size(); ++t) {
-    const auto& c = ft.tris[t];
-    const Vec2 q[3] = {nd.uv[c[0]], nd.uv[c[1]], nd.uv[c[2]]};
-    const size_t i0 = std::min({cell_of(ub, q[0].x), cell_of(ub, q[1].x), cell_of(ub, q[2].x)});
-    const size_t i1 = std::max({cell_of(ub, q[0].x), cell_of(ub, q[1].x), cell_of(ub, q[2].x)});
-    const size_t j0 = std::min({cell_of(vb, q[0].y), cell_of(vb, q[1].y), cell_of(vb, q[2].y)});
-    const size_t j1 = std::max({cell_of(vb, q[0].y), cell_of(vb, q[1].y), cell_of(vb, q[2].y)});
-    for (size_t i = i0; i <= i1; ++i) {
-      for (size_t j = j0; j <= j1; ++j) {
-        std::vector<ClipVertex> poly{{q[0], Vec3(1, 0, 0)}, {q[1], Vec3(0, 1, 0)}, {q[2], Vec3(0, 0, 1)}};
-        if (i0 != i1 || j0 != j1) {
-          // Cells at the ends of the grid are not clipped outwards: the mapping clamps there, and
-          // corners slightly outside the surface's range (within OCCT's tolerance) stay usable.
-          if (i > 0) poly = clip(poly, 0, ub[i], 1.0);
-          if (i + 2 < ub.size() && !poly.empty()) poly = clip(poly, 0, ub[i + 1], -1.0);
-          if (j > 0 && !poly.empty()) poly = clip(poly, 1, vb[j], 1.0);
-          if (j + 2 < vb.size() && !poly.empty()) poly = clip(poly, 1, vb[j + 1], -1.0);
-        }
-        for (size_t k = 1; k + 1 < poly.size(); ++k) {
-          const ClipVertex* v[3] = {&poly[0], &poly[k], &poly[k + 1]};
-          const double a = 0.5 * cross(v[1]->uv - v[0]->uv, v[2]->uv - v[0]->uv);
-          if (a == 0.0) continue;
-          const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
-          std::array<Vec2, 3> luv;
-          for (int m = 0; m < 3; ++m) {
-            const Vec3& w = v[m]->b;
-            mesh.positions.push_back(w.x * nd.X[c[0]] + w.y * nd.X[c[1]] + w.z * nd.X[c[2]]);
-            luv[m] = grid.local(i, j, v[m]->uv);
-          }
-          mesh.triangles.push_back({base, base + 1, base + 2});
-          mesh.triangle_patch.push_back(static_cast<uint32_t>(i * grid.nv + j));
-          mesh.triangle_uv.push_back(luv);
-        }
-      }
+  for (const auto& c : ft.tris) {
+    for (const GridPiece& piece : cut_along_grid({nd.uv[c[0]], nd.uv[c[1]], nd.uv[c[2]]}, cells)) {
+      const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
+      for (const Vec3& w : piece.barycentric) mesh.positions.push_back(w.x * nd.X[c[0]] + w.y * nd.X[c[1]] + w.z * nd.X[c[2]]);
+      mesh.triangles.push_back({base, base + 1, base + 2});
+      mesh.triangle_patch.push_back(piece.patch);
+      mesh.triangle_uv.push_back(piece.st);
     }
   }
   return mesh;
