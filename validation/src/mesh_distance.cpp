@@ -1,5 +1,7 @@
 #include "mesh_distance.hpp"
 
+#include "sagitta/certify.hpp"
+
 #include <CGAL/AABB_segment_primitive.h>
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
@@ -148,3 +150,20 @@ double MeshDistance::rounding_bound(const Vec3& p) const {
 }
 
 }  // namespace sagitta::detail
+
+namespace sagitta {
+
+std::vector<double> distance_lower_bounds(const Tessellation& mesh, const std::vector<Vec3>& points) {
+  std::vector<double> lower(points.size(), 0.0);
+  if (mesh.triangles.empty() || points.empty()) return lower;
+  const detail::MeshDistance distance(mesh);
+  for (size_t k = 0; k < points.size(); ++k) {
+    const Vec3& p = points[k];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    const double d = distance.distance(p) - distance.rounding_bound(p);
+    lower[k] = std::isfinite(d) ? std::max(0.0, d) : 0.0;
+  }
+  return lower;
+}
+
+}  // namespace sagitta

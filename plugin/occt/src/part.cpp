@@ -703,6 +703,14 @@ BoundaryChord bound_chord(const FaceGeometry& g, const RangeCurve& rc, const Loo
     map.to_uv_error = 1e-12 * std::max(ub.back() - ub.front(), vb.back() - vb.front());
   }
   c.deviation = detail::chord_deviation(rc.pc, param(p.t), param(q.t), map, c.uv_a, c.uv_b);
+  for (int k = 0; k < 3; ++k) {
+    const double t = p.t + 0.25 * (k + 1) * (q.t - p.t);
+    const gp_Pnt2d r = rc.pc->Value(param(t));
+    c.curve_points[k] = eval_uv(g, face_to_uv(g, r.X() + rc.shift.x, r.Y() + rc.shift.y));
+    const double size = std::max({std::abs(c.curve_points[k].x), std::abs(c.curve_points[k].y),
+                                  std::abs(c.curve_points[k].z)});
+    c.curve_point_error = std::max(c.curve_point_error, 1e-12 * size);
+  }
   if (rc.reversed) std::swap(c.a, c.b), std::swap(c.uv_a, c.uv_b);  // along the loop
   return c;
 }

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <queue>
 #include <vector>
 
 namespace sagitta::occt::detail {
@@ -20,6 +21,7 @@ namespace sagitta::occt::detail {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kNodeBudget = 512;  // sub-arcs split per Bézier piece of a chord's curve
 
 double segment_distance(const Vec2& p, const Vec2& a, const Vec2& b) {
   const Vec2 d = b - a;
@@ -84,12 +86,36 @@ struct Bounder {
     return d + map.to_uv_error * std::max(map.metric.x, map.metric.y);
   }
 
-  double bound(const Arc& arc, int depth) const {
-    const double hull = hull_bound(arc);
-    const double point = segment_distance(mapped(midpoint(arc)), a, b);
-    if (!(hull > floor) || hull <= 1.1 * point || depth >= max_depth) return hull;
-    const auto [left, right] = halves(arc);
-    return std::max(bound(left, depth + 1), bound(right, depth + 1));
+  // Branch and bound over sub-arcs (largest hull first): a sub-arc whose hull bound is within 10 %
+  // of the largest curve point distance seen so far cannot raise the maximum by more, so it is not
+  // split; sub-arcs at max_depth or beyond the node budget keep their hull bound. Returns the largest
+  // bound left: an upper bound of the arc's distance to [a, b].
+  double bound(const Arc& arc) const {
+    struct Node {
+      double hull;
+      int depth;
+      Arc arc;
+      bool operator<(const Node& o) const { return hull < o.hull; }
+    };
+    std::priority_queue<Node> open;
+    open.push({hull_bound(arc), 0, arc});
+    double seen = 0.0, settled = 0.0;
+    int nodes = 0;
+    while (!open.empty()) {
+      Node n = open.top();
+      open.pop();
+      seen = std::max(seen, segment_distance(mapped(midpoint(n.arc)), a, b));
+      if (!(n.hull > floor) || n.hull <= 1.1 * seen) return std::max(settled, n.hull);
+      if (n.depth >= max_depth || nodes >= kNodeBudget) {
+        settled = std::max(settled, n.hull);
+        continue;
+      }
+      auto [left, right] = halves(n.arc);
+      nodes += 2;
+      open.push({hull_bound(left), n.depth + 1, std::move(left)});
+      open.push({hull_bound(right), n.depth + 1, std::move(right)});
+    }
+    return settled;
   }
 };
 
@@ -99,7 +125,7 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
                        const Vec2& b_uv) {
   const Vec2 a = map.metric * a_uv, b = map.metric * b_uv;
   const double scale = std::max({std::abs(a.x), std::abs(a.y), std::abs(b.x), std::abs(b.y)}) + glm::length(b - a);
-  const Bounder bounder{map, a, b, 1e-9 * glm::length(b - a), map.identity ? 10 : 8};
+  const Bounder bounder{map, a, b, 1e-9 * glm::length(b - a), map.identity ? 16 : 14};
   const double rounding = 1e-13 * scale;
   try {
     if (p0 == p1) {
@@ -120,7 +146,7 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
         const gp_Pnt2d q = arc->Pole(i);
         h.push_back(glm::dvec3(w * q.X(), w * q.Y(), w));
       }
-      deviation = std::max(deviation, bounder.bound(h, 0));
+      deviation = std::max(deviation, bounder.bound(h));
     }
     return std::isfinite(deviation) ? deviation + rounding : kInf;
   } catch (const Standard_Failure&) {

@@ -25,11 +25,11 @@ struct ParameterMap {
 };
 
 // Upper bound of max over p in [p0, p1] of dist(map(pcurve(p)), segment [a, b]) (both scaled by
-// map.metric), from the convex
-// hull of the curve's Bézier pieces (OCCT's exact conversion; rational pieces need positive
-// weights), subdivided until the hull is within 10 % of a curve point's distance. Through a
-// non-identity map each piece's (u, v) box is mapped corner by corner (monotone coordinates).
-// +infinity when the curve cannot be converted or has a non-positive weight.
+// map.metric), from the convex hull of the curve's Bézier pieces (OCCT's exact conversion; rational
+// pieces need positive weights), split best-first until the largest hull is within 10 % of the
+// largest curve point distance seen (or a depth / node budget is spent). Through a non-identity map
+// each piece's (u, v) box is mapped corner by corner (monotone coordinates). +infinity when the
+// curve cannot be converted or has a non-positive weight.
 double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1, const ParameterMap& map, const Vec2& a_uv,
                        const Vec2& b_uv);
 

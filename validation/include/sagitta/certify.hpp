@@ -113,6 +113,11 @@ struct ExternalOptions {
 };
 DistanceReport certify_external(const Model& model, const Tessellation& mesh, const ExternalOptions& options = {});
 
+// Per point: a proven lower bound of its distance to the mesh's triangles (CGAL's AABB distance less
+// its rounding bound; 0 for a point that is not finite). For lower-bound witnesses the caller knows
+// to lie on the surface (a trimmed face's boundary curve, for instance).
+std::vector<double> distance_lower_bounds(const Tessellation& mesh, const std::vector<Vec3>& points);
+
 namespace detail {
 
 // Used by certify_distance and certify_external, exported for tests: a value <= the distance from x

@@ -69,6 +69,7 @@ struct FaceCertificate {
   double upper = 0.0;       // hausdorff.upper when certified
   double sliver = 0.0;      // loops route: the largest chord term (speed x deviation), in model units
   uint64_t chords = 0;      // loops route: chords of the face's loops
+  double seconds = 0.0;     // this face's certificate (faces run in parallel)
 };
 
 struct PartCertificate {

@@ -40,6 +40,11 @@ struct BoundaryChord {
   // segment [uv_a, uv_b], measured in (U, V) scaled by PartFace::chord_metric (convex hull of the
   // p-curve's exact Bézier pieces); +infinity when it could not be proven.
   double deviation = std::numeric_limits<double>::infinity();
+  // Points of the face on its trimming curve between a and b (the p-curve at 1/4, 1/2 and 3/4 of
+  // the chord's parameter range, evaluated on the face's patches): lower-bound witnesses for the
+  // face -> mesh distance, each within curve_point_error of the face.
+  std::array<Vec3, 3> curve_points{};
+  double curve_point_error = 0.0;
 };
 
 // One face of the part (faces in TopExp::MapShapes order, named as FreeCAD names them).
