@@ -583,6 +583,27 @@ void bind_part(py::module_& m) {
       py::arg("brep_text"), py::arg("name"), py::arg("scheme") = "uniform", py::arg("level") = 2,
       py::arg("segments") = py::none(), py::arg("threshold") = py::none(), py::arg("edge_tolerance") = 0.0,
       "mesh_part on a shape's BREP text (FreeCAD: shape.exportBrepToString()); `name` names it in messages");
+  m.def(
+      "certify_part",
+      [](const occt::PartMesh& part, int max_depth) {
+        if (max_depth < 0 || max_depth > 10) throw InputError("max_depth must be in 0..10");
+        nlohmann::json doc;
+        std::vector<double> triangle_upper;
+        {
+          py::gil_scoped_release release;
+          CertifyOptions options;
+          options.max_depth = max_depth;
+          const app::PartCertificate cert = app::certify_part(part, options);
+          doc = app::part_certificate_json(part, cert);
+          triangle_upper = cert.triangle_upper;
+        }
+        py::dict out = to_python(doc).cast<py::dict>();
+        out["triangle_error"] = array_of(triangle_upper);
+        return out;
+      },
+      py::arg("part"), py::arg("max_depth") = 8,
+      "The whole part's certificate, face by face (`sagitta validate PART --json`'s \"certificate\"), plus "
+      "triangle_error (per triangle certified bound, inf on faces not certified)");
   m.def("check_solids", &check_solids_python, py::arg("mesh"), py::arg("triangle_solid"), py::arg("boundary_edges"),
         py::arg("cgal") = true, py::arg("self_intersections") = true,
         "Per-solid watertightness of a whole-part mesh: one dict per solid id (SolidCheck's fields), sorted by id");

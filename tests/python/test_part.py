@@ -45,6 +45,30 @@ class PartTest(unittest.TestCase):
         for f in faces:
             self.assertEqual(f["status"], "tessellated", f["name"])
 
+    def test_certify_part(self):
+        """certify_part: every face of pr1ct certified (its trimmed plane by the loops route), the
+        per-triangle bounds finite and at most the part's upper bound, which is at least every
+        face's lower bound; the same numbers as the CLI's JSON certificate would carry."""
+        path = os.path.join(SHARED, "cad", "step", "pr1ct.stp")
+        if not os.path.exists(path):
+            self.skipTest("shared data absent")
+        part = _sagitta.mesh_part(path, level=2)
+        cert = _sagitta.certify_part(part)
+        self.assertTrue(cert["certified"])
+        self.assertEqual(cert["faces_certified"], len(part.faces))
+        self.assertEqual([f["face"] for f in cert["faces"]], [f["name"] for f in part.faces])
+        self.assertTrue(any(f["route"] == "loops" and f["trimmed"] for f in cert["faces"]))
+        upper = cert["hausdorff"]["upper"]
+        error = cert["triangle_error"]
+        self.assertEqual(error.shape, (part.mesh.triangle_count,))
+        self.assertTrue(np.all(np.isfinite(error)))
+        self.assertLessEqual(error.max(), upper)
+        for f in cert["faces"]:
+            self.assertLessEqual(f["lower"], upper)
+            self.assertLessEqual(f["lower"], f["upper"])
+        with self.assertRaises(_sagitta.InputError):
+            _sagitta.certify_part(part, max_depth=11)
+
     def test_shared_step_part(self):
         path = os.path.join(SHARED, "cad", "step", "pr1ct.stp")
         if not os.path.exists(path):
