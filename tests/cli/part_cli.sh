@@ -61,6 +61,27 @@ if [[ -n "${FIXTURES:-}" && -f "$FIXTURES/facts.json" ]]; then
   set -e
   [[ $code == 3 ]] || fail "plate: --max-error 1e-9: exit $code"
 
+  # fit: a whole part to 2e-4 of its diagonal (FreeCAD's). The certified error meets the target, the
+  # chosen segments are the smallest that do (one fewer misses, or it is 1), the mesh written is the
+  # one measured, and a direct validate with the same segments and edge tolerance certifies the same.
+  bbox=$(fact plate_with_holes.brep bbox_diag)
+  "$SAGITTA" fit "$plate" --target-error 2e-4 --relative --json "$tmp/fit.json" --out "$tmp/fit.ply" >/dev/null \
+    || fail "plate: fit exit $?"
+  [[ $(field "$tmp/fit.json" "d['met'] and d['certified'] and d['certified_error'] <= d['target_error'] and abs(d['target_error'] - 2e-4 * $bbox) <= 1e-6 * d['target_error']") == True ]] \
+    || fail "plate: fit did not meet its target: $(field "$tmp/fit.json" "(d['target_error'], d['certified_error'])")"
+  [[ $(ply_faces "$tmp/fit.ply") == $(field "$tmp/fit.json" "d['triangles']") ]] || fail "plate: fit PLY faces != JSON triangles"
+  [[ $(field "$tmp/fit.json" "d['segments'] == 1 or any(s['segments'] == d['segments'] - 1 and not (s['certified'] and s['upper'] <= d['target_error']) for s in d['steps'])") == True ]] \
+    || fail "plate: fit's segments are not the smallest that meet the target"
+  segs=$(field "$tmp/fit.json" "d['segments']"); tol=$(field "$tmp/fit.json" "repr(d['edge_tolerance'])")
+  "$SAGITTA" validate "$plate" --segments "$segs" --edge-tolerance "$tol" --json "$tmp/fv.json" >/dev/null || fail "plate: validate of the fit exit $?"
+  [[ $(field "$tmp/fv.json" "d['certificate']['hausdorff']['upper']") == $(field "$tmp/fit.json" "d['certified_error']") ]] \
+    || fail "plate: fit's certified error differs from a direct validate"
+  # --scheme esc on a whole part is refused with exit code 2 and one line.
+  set +e
+  "$SAGITTA" fit "$plate" --scheme esc --target-error 1 >/dev/null 2>"$tmp/err"; code=$?
+  set -e
+  [[ $code == 2 && $(wc -l < "$tmp/err") == 1 ]] || fail "plate: fit --scheme esc: exit $code, $(cat "$tmp/err")"
+
   # --edge-tolerance t: each hole's circles (r 6 through, r 4 blind; two circles each) need at least
   # pi / acos(1 - t / r) chords of sagitta <= t, so at least that many edge vertices.
   "$SAGITTA" tessellate "$plate" --level 1 --edge-tolerance 0.01 --stats "$tmp/e.json" >/dev/null || fail "plate: --edge-tolerance"

@@ -118,12 +118,4 @@ nlohmann::json part_validation_json(const PartValidation& v) {
   return j;
 }
 
-
-void refuse_cad_part(const std::string& input, const std::string& command) {
-  if (!occt::is_cad_file(input) || !occt::is_whole_part(occt::read_cad_file(input))) return;
-  throw InputError(input + ": `sagitta " + command +
-                   "` on a CAD part is not implemented yet (issue 15: certified whole parts); use `sagitta tessellate` "
-                   "or `sagitta validate`");
-}
-
 }  // namespace sagitta::app

@@ -75,7 +75,9 @@ def _metrics(report):
     certified = bool(report.get("certified", False))
     hausdorff = cert.get("hausdorff") or {}
     faces = report.get("faces", report.get("patches"))
-    worst = max(cert.get("face_upper", []), key=lambda f: f.get("upper", 0), default=None)
+    face_list = cert.get("faces") if "certificate" in report else None  # a patch model's "faces" is a count
+    certified_faces = [f for f in face_list or [] if f.get("certified")]
+    worst = max(certified_faces, key=lambda f: f.get("upper") or 0, default=None)
     return {
         "faces": faces,
         "faces_tessellated": report.get("faces_tessellated", faces),

@@ -138,9 +138,41 @@ std::string part_certificate_headline(const PartRun& run);
 nlohmann::json part_report_entry(const std::string& path, const std::string& name, const std::vector<int>& levels,
                                  const std::function<void(int, int, const std::string&)>& progress);
 
-// Refuses (InputError, one line naming the file and issue 15) a CAD part given to a command that
-// has no whole-part path yet (fit). Does nothing for other inputs, loose untrimmed CAD
-// faces included (occt::is_whole_part: they keep the patch path).
-void refuse_cad_part(const std::string& input, const std::string& command);
+// A whole part fitted to a target error (`sagitta fit PART`): the uniform scheme's segments per
+// patch side N, with every B-rep edge split until its chords lie within target / 2 of the curve.
+// The certified error of the part falls as N grows (both the triangles' and the slivers' terms);
+// N is doubled until the certificate meets the target, then bisected down to the smallest N that
+// meets it, the fewest triangles of this family. The search stops with met = false (and why) when
+// a face cannot be certified at all (its reason does not depend on N), or at kMaxFitSegments.
+struct PartFit {
+  bool met = false;
+  std::string reason;          // why not met ("" when met)
+  double target = 0.0;         // model units
+  int segments = 0;            // the chosen N (met), else the last tried
+  double edge_tolerance = 0.0;
+  PartRun run;                 // the chosen mesh with its validation and certificate
+  struct Step {
+    int segments = 0;
+    uint64_t triangles = 0;
+    bool certified = false;
+    double upper = 0.0;  // the part's certified upper bound (+inf when not certified)
+    double seconds = 0.0;
+  };
+  std::vector<Step> steps;
+  double seconds = 0.0;
+};
+
+inline constexpr int kMaxFitSegments = 256;
+
+// `mesher` meshes the part with the given options (the file or a BREP text). progress (may be empty)
+// is told each step: (step, segments).
+PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& mesher, double target,
+                 const CertifyOptions& certify, const std::function<void(int, int)>& progress = {});
+
+// The fit as JSON: met, reason, target, segments, edge_tolerance, triangles, certified_error,
+// certified_lower_bound,
+// steps [{segments, triangles, certified, upper, seconds}], seconds, and the chosen mesh's
+// part_run_json under "part".
+nlohmann::json part_fit_json(const PartFit& fit);
 
 }  // namespace sagitta::app
