@@ -278,7 +278,7 @@ class HeadlessTest(unittest.TestCase):
     def test_partdesign_plate_with_hole_is_meshed_whole(self):
         """Tessellate on a PartDesign Body with a hole meshes every face, closed: the same mesh as the
         module's mesh_part_brep on the body's BREP text, one mesh segment per face, closed and outward
-        by FreeCAD's own mesh checks with the solid's volume; Validate reports each solid closed and no
+        by FreeCAD's own mesh checks with the solid's volume; Validate reports each solid closed and the
         certified distance; Undo removes the feature; the body is untouched."""
         import _sagitta
         doc = FreeCAD.newDocument("PlateWithHole")
@@ -317,13 +317,17 @@ class HeadlessTest(unittest.TestCase):
         self.assertTrue(check["closed"] and check["cgal_closed"] and check["cgal_outward"])
         self.assertEqual(check["euler_characteristic"], 0)  # genus 1: the hole
         self.assertEqual(obj.TopologyVerdict, "solid 1: closed")
-        self.assertEqual(obj.Certification, "not certified (trimmed faces: issue 15)")
-        self.assertEqual((obj.ErrorLower, obj.ErrorUpper), (0.0, math.inf))  # no certified upper bound
+        # The certificate is `sagitta validate` on the body's BREP at the same level, face by face.
+        self.assertEqual(obj.Certification, "certified")
+        self.assertTrue(report["certified"] and report["hausdorff"]["upper_certified"])
+        self.assertEqual((obj.ErrorLower, obj.ErrorUpper), (report["hausdorff"]["lower"], report["hausdorff"]["upper"]))
+        self.assertTrue(0 < obj.ErrorLower <= obj.ErrorUpper < math.inf)
+        self.assertEqual([f["name"] for f in report["face_certificates"]], ["Face%d" % (k + 1) for k in range(faces)])
         self.assertEqual(len(obj.FaceColors), obj.Mesh.CountFacets)  # coloured by face, not by error
         html_path = os.path.join(WORK, "part.html")
         SagittaCore.write_html_report(report, obj.Label, html_path)
         with open(html_path) as f:
-            self.assertIn("not certified (trimmed faces: issue 15)", f.read())
+            self.assertIn("Distance: certified", f.read())
         with self.assertRaises(SagittaCore.SagittaError):
             SagittaCore.fit_tessellation(obj, 0.01)
         with self.assertRaises(SagittaCore.SagittaError):  # pn is for triangle meshes: refused, nothing added
@@ -511,8 +515,13 @@ class HeadlessTest(unittest.TestCase):
         self.assertTrue(report["hausdorff"]["upper_certified"])
         self.assertEqual(obj.ErrorUpper, report["hausdorff"]["upper"])
         part = SagittaCore.make_tessellation(doc, [(plate, [])], scheme="uniform", level=2)
-        SagittaCore.validate_tessellation(part)
-        self.assertTrue(part.Certification.startswith("not certified"))
+        command = SagittaCore.sagitta_command
+        SagittaCore.sagitta_command = lambda: None  # no `sagitta` command: no part certificate
+        try:
+            SagittaCore.validate_tessellation(part)
+        finally:
+            SagittaCore.sagitta_command = command
+        self.assertTrue(part.Certification.startswith("not certified (the whole-part certificate needs"))
         self.assertEqual(part.ErrorUpper, math.inf)
         self.assertGreaterEqual(part.ErrorUpper, part.ErrorLower)
         self.assertEqual(SagittaCore.certified_upper({"upper": None, "upper_certified": False}), math.inf)
