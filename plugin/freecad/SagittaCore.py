@@ -549,57 +549,19 @@ def certified_upper(interval):
     return upper if upper is not None and interval["upper_certified"] else math.inf
 
 
-def sagitta_command():
-    """The `sagitta` executable: $SAGITTA_CLI, else the one on PATH; None when there is none."""
-    import shutil
-    cli = os.environ.get("SAGITTA_CLI")
-    return cli if cli and os.access(cli, os.X_OK) else shutil.which("sagitta")
-
-
-def part_command_options(params):
-    """`sagitta validate` options for a whole part's scheme parameters (part_parameters' keys)."""
-    options = ["--scheme", params["scheme"]]
-    if params.get("segments") is not None:
-        options += ["--segments", str(params["segments"])]
-    else:
-        options += ["--level", str(params["level"])]
-    if params.get("threshold") is not None:
-        options += ["--threshold", repr(float(params["threshold"]))]
-    return options
-
-
-def part_certificate(links, params, part, max_depth):
-    """The distance certificate of a whole part, face by face: `sagitta validate PART.brep --json`'s
-    "certificate" on the linked shapes' BREP text meshed with the same parameters (the Python module
-    has no binding of the part certificate). The command meshes the same triangles as `part` (the
-    mesher is deterministic; checked by the triangle count). Returns the certificate dict, or None
-    when no `sagitta` command is found; raises SagittaError when the command fails."""
-    import json
-    import subprocess
-    cli = sagitta_command()
-    if cli is None:
-        return None
-    with tempfile.TemporaryDirectory(prefix="sagitta-part-") as folder:
-        brep, out = os.path.join(folder, "part.brep"), os.path.join(folder, "validate.json")
-        with open(brep, "w") as f:
-            f.write(part_brep_text(links))
-        args = [cli, "validate", brep, "--json", out, "--max-depth", str(max_depth)]
-        run = subprocess.run(args + part_command_options(part_parameters(params)), capture_output=True, text=True)
-        if run.returncode not in (0, 3) or not os.path.exists(out):  # 3: a requirement not met (still a report)
-            raise SagittaError("sagitta validate failed: %s" % (run.stderr.strip() or "exit code %d" % run.returncode))
-        with open(out) as f:
-            report = json.load(f)
-    if report["triangles"] != part.mesh.triangle_count or len(report["certificate"]["faces"]) != len(part.faces):
-        raise SagittaError("sagitta validate meshed %d triangles, the feature has %d: no certificate"
-                           % (report["triangles"], part.mesh.triangle_count))
-    return report["certificate"]
+def part_certificate(part, max_depth):
+    """The distance certificate of a whole part, face by face, on its mesh (mesh_part's, the feature's):
+    the library's certify_part (`sagitta validate PART --json`'s "certificate", plus triangle_error).
+    Library errors become SagittaError."""
+    try:
+        return _sagitta.certify_part(part, max_depth=max_depth)
+    except ValueError as error:
+        raise SagittaError(str(error))
 
 
 def certificate_text(certificate, part, names):
-    """"certified" when every face is; else "not certified: " and each uncertified face, FreeCAD's
-    name (`names`: freecad_face_names) and the certificate's reason."""
-    if certificate is None:
-        return "not certified (the whole-part certificate needs the sagitta command: set SAGITTA_CLI or PATH)"
+    """"certified" when every face is; else "not certified (k of n faces): " and each uncertified face,
+    FreeCAD's name (`names`: freecad_face_names) and the certificate's reason."""
     if certificate["certified"]:
         return "certified"
     faces = ["%s: %s" % (face_note_name(face, names), c["reason"])
@@ -610,15 +572,14 @@ def certificate_text(certificate, part, names):
 def validate_part(obj, max_depth=None):
     """Watertightness of a whole-part feature, per solid (the library's check_solids on the part
     re-meshed exactly as execute did: the mesher is deterministic), and its distance certificate face
-    by face (part_certificate). Stores the verdict, the interval (ErrorUpper inf unless every face is
-    certified) and Certification on the feature in one transaction and returns the report:
-    {"kind": "part", "label", "triangles", "vertices", "faces", "faces_trimmed", "faces_skipped",
-    "distance" (Certification's text), "hausdorff" (the part's interval), "certified", "face_certificates"
-    ([{name, route, certified, lower, upper, reason}]), "seconds", "solids": [check_solids' dict plus
-    "brep_closed", "brep_valid", "brep_volume" (-1: faces outside every solid)]}."""
+    by face (part_certificate, on the same mesh). Stores the verdict, the interval (ErrorUpper inf
+    unless every face is certified) and Certification on the feature in one transaction and returns
+    the report: {"kind": "part", "label", "triangles", "vertices", "faces", "faces_trimmed",
+    "faces_skipped", "distance" (Certification's text), "hausdorff" (the part's interval), "certified",
+    "face_certificates" ([{name, route, certified, lower, upper, reason}]), "seconds", "solids":
+    [check_solids' dict plus "brep_closed", "brep_valid", "brep_volume" (-1: faces outside every solid)]}."""
     depth = preferences()["max_depth"] if max_depth is None else max_depth
-    params = scheme_parameters(obj)
-    part = mesh_part(obj.Source, obj.Label, params)
+    part = mesh_part(obj.Source, obj.Label, scheme_parameters(obj))
     start = time.perf_counter()
     try:
         checks = _sagitta.check_solids(part.mesh, part.triangle_solid, part.boundary_edges)
@@ -630,18 +591,16 @@ def validate_part(obj, max_depth=None):
         check["brep_closed"] = bool(solid and solid["closed"])
         check["brep_valid"] = bool(solid and solid["valid"])
         check["brep_volume"] = solid["volume"] if solid else 0.0
-    certificate = part_certificate(obj.Source, params, part, depth)
+    certificate = part_certificate(part, depth)
     names = freecad_face_names(obj.Source)
     report = {"kind": "part", "label": obj.Label, "triangles": part.mesh.triangle_count,
               "vertices": part.mesh.vertex_count, "faces": len(part.faces), "faces_trimmed": part.faces_trimmed,
               "faces_skipped": part.faces_skipped, "solids": checks,
               "distance": certificate_text(certificate, part, names),
-              "certified": bool(certificate and certificate["certified"]),
-              "hausdorff": certificate["hausdorff"] if certificate else {"lower": 0.0, "upper": None,
-                                                                         "upper_certified": False},
+              "certified": certificate["certified"], "hausdorff": certificate["hausdorff"],
               "face_certificates": [dict(name=face_note_name(face, names), **{k: c.get(k) for k in (
                   "route", "certified", "lower", "upper", "reason")})
-                  for face, c in zip(part.faces, certificate["faces"] if certificate else [])],
+                  for face, c in zip(part.faces, certificate["faces"])],
               "seconds": time.perf_counter() - start}
 
     def work():
