@@ -549,19 +549,36 @@ def certified_upper(interval):
     return upper if upper is not None and interval["upper_certified"] else math.inf
 
 
-# Why a whole part's distance is not certified yet: the certified validator works on whole Bézier
-# patches, not on faces cut by trimming loops (issue 15, "Certified whole parts").
-PART_NOT_CERTIFIED = "not certified (trimmed faces: issue 15)"
-PART_NOT_CERTIFIED_UNTRIMMED = "not certified (whole parts: issue 15)"
+def part_certificate(part, max_depth):
+    """The distance certificate of a whole part, face by face, on its mesh (mesh_part's, the feature's):
+    the library's certify_part (`sagitta validate PART --json`'s "certificate", plus triangle_error).
+    Library errors become SagittaError."""
+    try:
+        return _sagitta.certify_part(part, max_depth=max_depth)
+    except ValueError as error:
+        raise SagittaError(str(error))
 
 
-def validate_part(obj):
+def certificate_text(certificate, part, names):
+    """"certified" when every face is; else "not certified (k of n faces): " and each uncertified face,
+    FreeCAD's name (`names`: freecad_face_names) and the certificate's reason."""
+    if certificate["certified"]:
+        return "certified"
+    faces = ["%s: %s" % (face_note_name(face, names), c["reason"])
+             for face, c in zip(part.faces, certificate["faces"]) if not c["certified"]]
+    return "not certified (%d of %d faces): %s" % (len(faces), len(part.faces), "; ".join(faces))
+
+
+def validate_part(obj, max_depth=None):
     """Watertightness of a whole-part feature, per solid (the library's check_solids on the part
-    re-meshed exactly as execute did: the mesher is deterministic). Stores the verdict on the feature
-    in one transaction and returns the report: {"kind": "part", "label", "triangles", "vertices",
-    "faces", "faces_trimmed", "faces_skipped", "distance" (why no certified interval), "seconds",
-    "solids": [check_solids' dict plus "brep_closed", "brep_valid", "brep_volume" (-1: faces outside
-    every solid)]}. No distance is claimed: the error interval is cleared (the colours stay the faces')."""
+    re-meshed exactly as execute did: the mesher is deterministic), and its distance certificate face
+    by face (part_certificate, on the same mesh). Stores the verdict, the interval (ErrorUpper inf
+    unless every face is certified) and Certification on the feature in one transaction and returns
+    the report: {"kind": "part", "label", "triangles", "vertices", "faces", "faces_trimmed",
+    "faces_skipped", "distance" (Certification's text), "hausdorff" (the part's interval), "certified",
+    "face_certificates" ([{name, route, certified, lower, upper, reason}]), "seconds", "solids":
+    [check_solids' dict plus "brep_closed", "brep_valid", "brep_volume" (-1: faces outside every solid)]}."""
+    depth = preferences()["max_depth"] if max_depth is None else max_depth
     part = mesh_part(obj.Source, obj.Label, scheme_parameters(obj))
     start = time.perf_counter()
     try:
@@ -574,15 +591,21 @@ def validate_part(obj):
         check["brep_closed"] = bool(solid and solid["closed"])
         check["brep_valid"] = bool(solid and solid["valid"])
         check["brep_volume"] = solid["volume"] if solid else 0.0
+    certificate = part_certificate(part, depth)
+    names = freecad_face_names(obj.Source)
     report = {"kind": "part", "label": obj.Label, "triangles": part.mesh.triangle_count,
               "vertices": part.mesh.vertex_count, "faces": len(part.faces), "faces_trimmed": part.faces_trimmed,
               "faces_skipped": part.faces_skipped, "solids": checks,
-              "distance": PART_NOT_CERTIFIED if part.faces_trimmed else PART_NOT_CERTIFIED_UNTRIMMED,
+              "distance": certificate_text(certificate, part, names),
+              "certified": certificate["certified"], "hausdorff": certificate["hausdorff"],
+              "face_certificates": [dict(name=face_note_name(face, names), **{k: c.get(k) for k in (
+                  "route", "certified", "lower", "upper", "reason")})
+                  for face, c in zip(part.faces, certificate["faces"])],
               "seconds": time.perf_counter() - start}
 
     def work():
-        obj.ErrorLower = 0.0
-        obj.ErrorUpper = math.inf
+        obj.ErrorLower = report["hausdorff"]["lower"]
+        obj.ErrorUpper = certified_upper(report["hausdorff"])
         obj.TopologyVerdict = part_verdict_text(report)
         obj.Certification = report["distance"]
         obj.purgeTouched()
@@ -714,8 +737,16 @@ def write_html_report(report, label, path):
     _write_atomically(path, "\n".join(body))
 
 
+def interval_words(interval):
+    """[lower, upper], the upper bound only when certified."""
+    upper = interval["upper"]
+    return "[%.6g, %s]" % (interval["lower"], "%.6g" % upper if upper is not None and interval["upper_certified"]
+                           else "not certified")
+
+
 def part_html(report, label):
-    """The HTML page of a whole part's validation: per solid counts; the distance not certified."""
+    """The HTML page of a whole part's validation: per solid counts; the certified distance and each
+    face's certificate (FreeCAD's face names)."""
     import html
     keys = ("triangles", "open_edges", "model_boundary_edges", "crack_edges", "t_junctions", "non_manifold_edges",
             "inconsistent_orientation_edges", "euler_characteristic", "signed_volume", "brep_volume")
@@ -725,6 +756,15 @@ def part_html(report, label):
         "<p>Whole part: %d triangles, %d vertices, %d faces (%d trimmed, %d skipped)</p>" % (
             report["triangles"], report["vertices"], report["faces"], report["faces_trimmed"], report["faces_skipped"]),
         "<h2>Distance: %s</h2>" % html.escape(report["distance"]),
+        "<p>Hausdorff %s</p>" % html.escape(interval_words(report["hausdorff"])),
+        "<table border='1'><tr><th>face</th><th>route</th><th>lower</th><th>upper</th><th>reason</th></tr>",
+    ]
+    for f in report["face_certificates"]:
+        body.append("<tr><td>%s</td><td>%s</td><td>%.6g</td><td>%s</td><td>%s</td></tr>" % (
+            html.escape(f["name"]), html.escape(f["route"] or ""), f["lower"] or 0.0,
+            "%.6g" % f["upper"] if f["certified"] else "not certified", html.escape(f["reason"] or "")))
+    body += [
+        "</table>",
         "<h2>Watertightness per solid</h2><table border='1'><tr><th>solid</th><th>verdict</th>%s</tr>"
         % "".join("<th>%s</th>" % k.replace("_", " ") for k in keys),
     ]
@@ -775,8 +815,8 @@ def fit_tessellation(obj, target_error):
     if not is_tessellation(obj):
         raise SagittaError("%s is not a Sagitta tessellation" % obj.Label)
     if obj.WholePart:
-        raise SagittaError("%s is a whole part: its error is %s, so it cannot be fitted to a certified target"
-                           % (obj.Label, PART_NOT_CERTIFIED))
+        raise SagittaError("%s is a whole part: the fit works on patch models only (as `sagitta fit`); "
+                           "set Level or Segments and Validate" % obj.Label)
     check_target_error(target_error)
     model, _ = shape_model(obj.Source, obj.Label)
     try:

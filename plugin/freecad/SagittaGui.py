@@ -247,7 +247,8 @@ class ValidatePanel:
 
     @staticmethod
     def part_rows(layout, report):
-        """A whole part: watertightness per solid; the distance not certified, and why."""
+        """A whole part: watertightness per solid; the certified distance, or which faces are not
+        certified and why (FreeCAD's face names)."""
         def label(text):
             widget = QtGui.QLabel(text)
             widget.setWordWrap(True)
@@ -255,6 +256,7 @@ class ValidatePanel:
         layout.addRow(label("<b>%s</b>: whole part, %d triangles, %d faces (%d trimmed, %d skipped)" % (
             report["label"], report["triangles"], report["faces"], report["faces_trimmed"], report["faces_skipped"])))
         layout.addRow("Distance", label(report["distance"]))
+        layout.addRow("Hausdorff", label(interval_text(report["hausdorff"])))
         for check in report["solids"]:
             layout.addRow(SagittaCore.solid_name(check), label(SagittaCore.solid_verdict(check)))
             layout.addRow("", label("open edges %d (model boundary %d, cracks %d), T-junctions %d, non-manifold %d" % (

@@ -2,7 +2,8 @@
 into a throw-away user Mod folder). Activates the workbench, selects faces, runs every command with
 FreeCADGui.runCommand, checks what each did, and saves a screenshot (SAGITTA_SCREENSHOT) of the
 teapot coloured by certified per-triangle error beside the validation task panel, and one
-(SAGITTA_PART_SCREENSHOT) of a plate with holes meshed whole, coloured by face."""
+(SAGITTA_PART_SCREENSHOT) of a plate with holes meshed whole, coloured by face. Then issue 18's
+acceptance on seven shapes (check_primitives), one screenshot each into SAGITTA_PRIMITIVE_SCREENSHOTS."""
 import os
 import sys
 import traceback
@@ -254,7 +255,7 @@ def colours_after_reopen(watcher, ctx):
 
 def check_whole_part(watcher):
     """Tessellate and Validate on a solid with holes through the commands: the whole part is meshed
-    (every face, closed), Validate shows each solid's watertightness and no certified distance.
+    (every face, closed), Validate shows each solid's watertightness and the certified distance.
     Saves a screenshot of it (SAGITTA_PART_SCREENSHOT) beside the validation panel."""
     import Part
     import SagittaCore
@@ -290,8 +291,9 @@ def check_whole_part(watcher):
     panel = SagittaGui.active_panel
     check(isinstance(panel, SagittaGui.ValidatePanel) and panel.report.get("kind") == "part"
           and tess.TopologyVerdict == "solid 1: closed", "Validate on a whole part: %s" % tess.TopologyVerdict)
-    check(tess.Certification == "not certified (trimmed faces: issue 15)", "no certified distance claimed")
-    check(tess.ErrorUpper == float("inf") and tess.ErrorUpper >= tess.ErrorLower, "no certified upper bound stored")
+    check(tess.Certification == "certified" and panel.report["certified"]
+          and 0 < tess.ErrorLower <= tess.ErrorUpper < float("inf"),
+          "whole part certified: [%g, %g]" % (tess.ErrorLower, tess.ErrorUpper))
     check(source.Shape.exportBrepToString() == brep, "the source shape is unchanged")
     source.ViewObject.Visibility = False
     tess.ViewObject.DisplayMode = "Flat Lines"
@@ -304,6 +306,165 @@ def check_whole_part(watcher):
     if shot:
         check(save_screenshot(view, shot), "screenshot saved to %s" % shot)
     FreeCADGui.Control.closeDialog()
+
+
+def primitive_sources(doc):
+    """Issue 18's shapes as a new user makes them: Part Box with every edge filleted, Cylinder,
+    Sphere, Torus, Cone (default, no apex), a Cut (plate minus a cylinder: a through hole) and a
+    PartDesign Body with a Pad and a through-all Pocket. Returns the objects to tessellate."""
+    import Part
+    from FreeCAD import Vector
+    box = doc.addObject("Part::Box", "Box")
+    box.Length, box.Width, box.Height = 20, 15, 10
+    doc.recompute()
+    fillet = doc.addObject("Part::Fillet", "FilletedBox")
+    fillet.Base = box
+    fillet.Edges = [(k + 1, 2.0, 2.0) for k in range(len(box.Shape.Edges))]
+    shapes = [fillet] + [doc.addObject("Part::" + kind, kind) for kind in ("Cylinder", "Sphere", "Torus", "Cone")]
+    plate = doc.addObject("Part::Box", "Plate")
+    plate.Length, plate.Width, plate.Height = 40, 30, 5
+    hole = doc.addObject("Part::Cylinder", "Hole")
+    hole.Radius, hole.Height, hole.Placement.Base = 6, 20, Vector(20, 15, -5)
+    cut = doc.addObject("Part::Cut", "PlateWithHole")
+    cut.Base, cut.Tool = plate, hole
+    body = doc.addObject("PartDesign::Body", "Body")
+    pad_sketch = body.newObject("Sketcher::SketchObject", "PadSketch")
+    pad_sketch.Support, pad_sketch.MapMode = (body.Origin.OriginFeatures[3], [""]), "FlatFace"  # XY_Plane
+    corners = [Vector(0, 0, 0), Vector(30, 0, 0), Vector(30, 20, 0), Vector(0, 20, 0)]
+    for k in range(4):
+        pad_sketch.addGeometry(Part.LineSegment(corners[k], corners[(k + 1) % 4]))
+    doc.recompute()
+    pad = body.newObject("PartDesign::Pad", "Pad")
+    pad.Profile, pad.Length = pad_sketch, 8
+    doc.recompute()
+    pocket_sketch = body.newObject("Sketcher::SketchObject", "PocketSketch")
+    pocket_sketch.Support, pocket_sketch.MapMode = (pad, ["Face6"]), "FlatFace"  # the top face
+    pocket_sketch.addGeometry(Part.Circle(Vector(15, 10, 0), Vector(0, 0, 1), 4))
+    doc.recompute()
+    pocket = body.newObject("PartDesign::Pocket", "Pocket")
+    pocket.Profile, pocket.Type = pocket_sketch, 1  # through all
+    doc.recompute()
+    return shapes + [cut, body]
+
+
+def open_edge_count(mesh):
+    """Edges of a Mesh.Mesh used by exactly one facet, counted from its facet list (not the library's)."""
+    uses = {}
+    for facet in mesh.Topology[1]:
+        for k in range(3):
+            edge = tuple(sorted((facet[k], facet[(k + 1) % 3])))
+            uses[edge] = uses.get(edge, 0) + 1
+    return sum(1 for n in uses.values() if n == 1)
+
+
+def sampled_mesh_to_shape(mesh, shape, samples=150):
+    """The largest distance from a triangle's centroid (up to `samples` triangles, evenly spread) to
+    the shape's faces, by OCCT's distToShape: a lower estimate of the mesh -> surface distance, made
+    without Sagitta, that a certified upper bound must not be below."""
+    import Part
+    surface = Part.makeCompound(shape.Faces)  # the faces, not the solid: a point inside is not at 0
+    points, facets = mesh.Topology
+    step = max(1, len(facets) // samples)
+    worst = 0.0
+    for a, b, c in facets[::step]:
+        centroid = (points[a] + points[b] + points[c]) * (1.0 / 3.0)
+        worst = max(worst, surface.distToShape(Part.Vertex(centroid))[0])
+    return worst
+
+
+# (shape, scheme) pairs whose Validate is not certified because of the C++ part certificate, with
+# its reason (certificate.faces[].reason of `sagitta validate PART.brep --json`): reported, see
+# docs/FREECAD.md. The test checks that exactly these, and only on the faces named, are not certified.
+KNOWN_UNCERTIFIED = {
+    ("FilletedBox", "esc"): "the face has a pole (a degenerated edge) and is re-triangulated inside its loops",
+    ("Sphere", "esc"): "the face has a pole (a degenerated edge) and is re-triangulated inside its loops",
+    ("Torus", "esc"): "the face's loops have no chord",
+}
+
+
+def check_primitives(watcher, shots):
+    """Issue 18's acceptance on each of primitive_sources' shapes, for uniform and ESC, through the
+    commands: Tessellate gives a closed mesh (Mesh.isSolid(), no open edge counted from the facets, no
+    non-manifold or inconsistently oriented facet), Validate says every solid is "closed" and a
+    certified interval (certified, finite upper >= lower), except the KNOWN_UNCERTIFIED pairs, whose
+    uncertified faces must carry the reason recorded there. Saves one screenshot per shape and scheme
+    into `shots` (a folder; None: none)."""
+    import SagittaCore
+    import SagittaGui
+    FreeCADGui.Control.closeDialog()
+    if shots:
+        os.makedirs(shots, exist_ok=True)
+    doc = FreeCAD.newDocument("Primitives")
+    sources = primitive_sources(doc)
+    for source in sources:
+        check("Invalid" not in source.State and source.Shape.isValid() and len(source.Shape.Solids) == 1,
+              "%s: one valid solid" % source.Name)
+    for source in sources:
+        for scheme in ("uniform", "esc"):
+            try:
+                check_primitive(watcher, doc, source, scheme, shots)
+            except Exception:
+                traceback.print_exc()
+                check(False, "%s %s raised" % (source.Name, scheme))
+            FreeCADGui.Control.closeDialog()
+    FreeCAD.closeDocument(doc.Name)
+    process_events(20)
+
+
+def check_primitive(watcher, doc, source, scheme, shots):
+    import SagittaCore
+    import SagittaGui
+    what = "%s %s" % (source.Name, scheme)
+    before = [o.Name for o in doc.Objects]
+    run_command("Sagitta_Tessellate", source)
+    panel = SagittaGui.active_panel
+    panel.scheme.setCurrentIndex(SagittaCore.SCHEMES.index(scheme))
+    panel.level.setValue(3)
+    if scheme == "esc":
+        panel.threshold.setValue(0.01)
+    check(panel.accept() is True, "%s: Tessellate" % what)
+    process_events()
+    tess = [o for o in doc.Objects if o.Name not in before and SagittaCore.is_tessellation(o)]
+    check(len(tess) == 1 and tess[0].WholePart and tess[0].Scheme == scheme, "%s: one whole-part feature" % what)
+    if len(tess) != 1:
+        return
+    tess = tess[0]
+    mesh = tess.Mesh
+    opened = open_edge_count(mesh)
+    check(mesh.isSolid() and opened == 0 and not mesh.hasNonManifolds() and mesh.countNonUniformOrientedFacets() == 0,
+          "%s: closed mesh (isSolid %s, %d open edges, %d facets)" % (what, mesh.isSolid(), opened, mesh.CountFacets))
+    run_command("Sagitta_Validate", tess)
+    report = SagittaGui.active_panel.report if isinstance(SagittaGui.active_panel, SagittaGui.ValidatePanel) else {}
+    check(report.get("kind") == "part" and tess.TopologyVerdict == "solid 1: closed",
+          "%s: Validate says closed (%s)" % (what, tess.TopologyVerdict))
+    known = KNOWN_UNCERTIFIED.get((source.Name, scheme))
+    faces = report.get("face_certificates", [])
+    if known is None:
+        check(tess.Certification == "certified" and report.get("certified")
+              and tess.ErrorLower <= tess.ErrorUpper < float("inf"),
+              "%s: certified Hausdorff [%g, %g] (%s)" % (what, tess.ErrorLower, tess.ErrorUpper, tess.Certification))
+        sampled = sampled_mesh_to_shape(mesh, source.Shape)
+        check(sampled <= tess.ErrorUpper * (1 + 1e-6) + 1e-5,  # + the float mesh's rounding
+              "%s: OCCT's distance from sampled centroids %g <= the certified upper bound %g" % (
+                  what, sampled, tess.ErrorUpper))
+    else:
+        failing = [f for f in faces if not f["certified"]]
+        check(tess.Certification.startswith("not certified") and tess.ErrorUpper == float("inf") and failing
+              and all(f["reason"].startswith(known) and f["name"] in tess.Certification for f in failing),
+              "%s: known failure, not certified on %s (%s)" % (what, [f["name"] for f in failing], known))
+    check(len(faces) == len(source.Shape.Faces) and all(f["name"] == "Face%d" % (k + 1) for k, f in enumerate(faces)),
+          "%s: one certificate per face, FreeCAD's face names" % what)
+    if shots:  # the tessellation alone, beside the validation panel
+        for obj in doc.Objects:
+            obj.ViewObject.Visibility = obj is tess
+        tess.ViewObject.DisplayMode = "Flat Lines"
+        FreeCADGui.Selection.clearSelection()
+        view = FreeCADGui.ActiveDocument.ActiveView
+        view.viewIsometric()
+        path = os.path.join(shots, "%s-%s.png" % (source.Name, scheme))
+        check(save_screenshot(view, path), "screenshot %s" % path)
+        tess.ViewObject.Visibility = False
+
 
 
 def run():
@@ -432,6 +593,7 @@ def run():
           and panel.report["method"] == "reference", "Validate of FreeCAD's own mesh (MeshPart)")
 
     check_whole_part(watcher)
+    check_primitives(watcher, os.environ.get("SAGITTA_PRIMITIVE_SCREENSHOTS"))
 
     # Preferences page: what it saves is what new features start from.
     page = SagittaGui.PreferencesPage()

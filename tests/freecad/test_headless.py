@@ -278,7 +278,7 @@ class HeadlessTest(unittest.TestCase):
     def test_partdesign_plate_with_hole_is_meshed_whole(self):
         """Tessellate on a PartDesign Body with a hole meshes every face, closed: the same mesh as the
         module's mesh_part_brep on the body's BREP text, one mesh segment per face, closed and outward
-        by FreeCAD's own mesh checks with the solid's volume; Validate reports each solid closed and no
+        by FreeCAD's own mesh checks with the solid's volume; Validate reports each solid closed and the
         certified distance; Undo removes the feature; the body is untouched."""
         import _sagitta
         doc = FreeCAD.newDocument("PlateWithHole")
@@ -317,13 +317,20 @@ class HeadlessTest(unittest.TestCase):
         self.assertTrue(check["closed"] and check["cgal_closed"] and check["cgal_outward"])
         self.assertEqual(check["euler_characteristic"], 0)  # genus 1: the hole
         self.assertEqual(obj.TopologyVerdict, "solid 1: closed")
-        self.assertEqual(obj.Certification, "not certified (trimmed faces: issue 15)")
-        self.assertEqual((obj.ErrorLower, obj.ErrorUpper), (0.0, math.inf))  # no certified upper bound
+        # The certificate is the one `sagitta validate` gives for the body's BREP file at the same level.
+        brep = os.path.join(WORK, "plate_with_hole.brep")
+        body.Shape.exportBrep(brep)
+        cli = cli_json(["validate", brep, "--level", "2", "--json"], "plate_with_hole.json")["certificate"]
+        self.assertEqual(obj.Certification, "certified")
+        self.assertTrue(cli["certified"] and report["certified"] and report["hausdorff"]["upper_certified"])
+        self.assertEqual((obj.ErrorLower, obj.ErrorUpper), (cli["hausdorff"]["lower"], cli["hausdorff"]["upper"]))
+        self.assertTrue(0 < obj.ErrorLower <= obj.ErrorUpper < math.inf)
+        self.assertEqual([f["name"] for f in report["face_certificates"]], ["Face%d" % (k + 1) for k in range(faces)])
         self.assertEqual(len(obj.FaceColors), obj.Mesh.CountFacets)  # coloured by face, not by error
         html_path = os.path.join(WORK, "part.html")
         SagittaCore.write_html_report(report, obj.Label, html_path)
         with open(html_path) as f:
-            self.assertIn("not certified (trimmed faces: issue 15)", f.read())
+            self.assertIn("Distance: certified", f.read())
         with self.assertRaises(SagittaCore.SagittaError):
             SagittaCore.fit_tessellation(obj, 0.01)
         with self.assertRaises(SagittaCore.SagittaError):  # pn is for triangle meshes: refused, nothing added
@@ -502,17 +509,17 @@ class HeadlessTest(unittest.TestCase):
         doc = FreeCAD.newDocument("Uncertified")
         face = doc.addObject("Part::Feature", "Face")
         face.Shape = bezier_face()
-        plate = doc.addObject("Part::Feature", "Plate")
-        plate.Shape = Part.makeBox(10, 10, 2).cut(Part.makeCylinder(2, 5, FreeCAD.Vector(5, 5, -1)))
+        sphere = doc.addObject("Part::Sphere", "Sphere")
         doc.recompute()
         obj = SagittaCore.make_tessellation(doc, [(face, [])], scheme="uniform", level=2)
         self.assertEqual((obj.ErrorLower, obj.ErrorUpper, obj.Certification), (0.0, math.inf, "not validated"))
         report = SagittaCore.validate_tessellation(obj, max_depth=4)
         self.assertTrue(report["hausdorff"]["upper_certified"])
         self.assertEqual(obj.ErrorUpper, report["hausdorff"]["upper"])
-        part = SagittaCore.make_tessellation(doc, [(plate, [])], scheme="uniform", level=2)
+        # ESC on a sphere: its face is not certified today (the pole: docs/FREECAD.md, "Whole parts").
+        part = SagittaCore.make_tessellation(doc, [(sphere, [])], scheme="esc", level=3, threshold=0.01)
         SagittaCore.validate_tessellation(part)
-        self.assertTrue(part.Certification.startswith("not certified"))
+        self.assertTrue(part.Certification.startswith("not certified (1 of 1 faces): Face1: the face has a pole"))
         self.assertEqual(part.ErrorUpper, math.inf)
         self.assertGreaterEqual(part.ErrorUpper, part.ErrorLower)
         self.assertEqual(SagittaCore.certified_upper({"upper": None, "upper_certified": False}), math.inf)
