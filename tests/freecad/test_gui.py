@@ -378,7 +378,6 @@ def sampled_mesh_to_shape(mesh, shape, samples=150):
 KNOWN_UNCERTIFIED = {
     ("FilletedBox", "esc"): "the face has a pole (a degenerated edge) and is re-triangulated inside its loops",
     ("Sphere", "esc"): "the face has a pole (a degenerated edge) and is re-triangulated inside its loops",
-    ("Torus", "esc"): "the face's loops have no chord",
 }
 
 

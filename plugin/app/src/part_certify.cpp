@@ -339,7 +339,21 @@ std::string tiling_reason(const occt::PartMesh& part, const Grid& g, const std::
       }
     }
   }
-  if (global == 0) return "the face's loops have no chord";
+  if (global == 0) {
+    // No boundary left once seam copies cancel: a closed surface (a whole torus). Triangles of one
+    // orientation with an empty boundary cover the (U, V) torus a constant number of times; their
+    // total area equal to the whole period rectangle's makes that number 1.
+    long double area = 0.0L;
+    for (const auto& q : corner_uv) {
+      area += 0.5L * std::abs((static_cast<long double>(q[1].x) - q[0].x) * (static_cast<long double>(q[2].y) - q[0].y) -
+                              (static_cast<long double>(q[2].x) - q[0].x) * (static_cast<long double>(q[1].y) - q[0].y));
+    }
+    const bool closed = f.u_period > 0.0 && f.v_period > 0.0 &&
+                        std::abs((f.u_breaks.back() - f.u_breaks.front()) - f.u_period) <= 1e-9 * f.u_period &&
+                        std::abs((f.v_breaks.back() - f.v_breaks.front()) - f.v_period) <= 1e-9 * f.v_period;
+    const long double whole = static_cast<long double>(f.u_period) * f.v_period;
+    if (!closed || std::abs(area - whole) > 1e-9L * whole) return "the face's loops have no chord";
+  }
   chord_triangle.assign(f.chords.size(), 0);
   for (size_t k = 0; k < f.chords.size(); ++k) {
     const occt::BoundaryChord& c = f.chords[k];
