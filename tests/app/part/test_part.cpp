@@ -74,11 +74,17 @@ void expect_face_bounds_hold(const occt::PartMesh& part, const app::PartCertific
         const Vec2 w = b.x * q[0] + b.y * q[1] + b.z * q[2];
         const Vec3 x = face.kept_whole ? face_point(part, face, part.mesh.triangle_patch[t], glm::clamp(w, 0.0, 1.0))
                                        : face_point(part, face, part.mesh.triangle_patch[t], w);
-        double d = std::numeric_limits<double>::infinity();
-        for (const size_t u : face_triangles[static_cast<size_t>(f.face)]) {
+        // The exact minimum over the face's triangles, needed only where it exceeds `worst`: the scan
+        // starts at the sample's own triangle and stops once the distance is at most `worst`.
+        const auto distance_to = [&](size_t u) {
           const Triangle& tri = part.mesh.triangles[u];
-          d = std::min(d, test::point_triangle_distance(x, part.mesh.positions[tri[0]], part.mesh.positions[tri[1]],
-                                                        part.mesh.positions[tri[2]]));
+          return test::point_triangle_distance(x, part.mesh.positions[tri[0]], part.mesh.positions[tri[1]],
+                                               part.mesh.positions[tri[2]]);
+        };
+        double d = distance_to(t);
+        for (const size_t u : face_triangles[static_cast<size_t>(f.face)]) {
+          if (d <= worst) break;
+          d = std::min(d, distance_to(u));
         }
         worst = std::max(worst, d);
       }
