@@ -19,8 +19,9 @@ for f in cad/bottle.brep cad/screw.step; do
   [[ $(field "$tmp/s.json" "'bezier_patches' in d") == True ]] || fail "$f: no bezier_patches"
 done
 
-# Acceptance 1: shell1 (untrimmed faces) crack-free.
-"$SAGITTA" validate "$SHARED_DATA/cad/shell1.brep" --scheme uniform --level 1 --require-watertight --json "$tmp/v.json" >/dev/null \
+# Acceptance 1: shell1 (untrimmed faces) crack-free. Watertightness only: the certificate's depth is
+# kept at 4 (every face's certificate at the default depth 8 takes 36 s in Release, minutes under ASan).
+"$SAGITTA" validate "$SHARED_DATA/cad/shell1.brep" --scheme uniform --level 1 --require-watertight --max-depth 4 --json "$tmp/v.json" >/dev/null \
   || fail "shell1: validate --require-watertight"
 [[ $(field "$tmp/v.json" "d['faces']") == 99 ]] || fail "shell1: 99 faces"
 
