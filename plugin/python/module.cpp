@@ -7,6 +7,7 @@
 #include "sagitta/app/json.hpp"
 #include "sagitta/app/part.hpp"
 #include "sagitta/app/validate.hpp"
+#include "sagitta/budget.hpp"
 #include "sagitta/certify.hpp"
 #include "sagitta/fit.hpp"
 #include "sagitta/fixtures.hpp"
@@ -609,12 +610,30 @@ void bind_part(py::module_& m) {
         "Per-solid watertightness of a whole-part mesh: one dict per solid id (SolidCheck's fields), sorted by id");
 }
 
+// The run's budget (sagitta/budget.hpp), process-wide: what the FreeCAD commands use to cancel work
+// running in another thread and to refuse, before allocating, work larger than the memory allowed.
+void bind_budget(py::module_& m) {
+  m.def("request_cancel", &budget::request_cancel,
+        "Ask the running work (any thread) to stop at its next check: it raises Interrupted, no result");
+  m.def("reset_budget", &budget::reset, "Clear the cancellation request, the time limit and the memory limit");
+  m.def("set_max_seconds", &budget::set_max_seconds, py::arg("seconds"),
+        "Work started from now raises Interrupted after `seconds` (<= 0: no limit)");
+  m.def("set_max_memory", &budget::set_max_bytes, py::arg("bytes"),
+        "Memory limit in bytes checked by up-front estimates and at allocation sites (<= 0: no limit); work that "
+        "would exceed it raises MemoryLimitExceeded before allocating");
+  m.def("max_memory", &budget::max_bytes, "The memory limit in bytes (0: none)");
+  m.def("cancel_requested", &budget::exhausted, "True once cancellation was requested or the time limit passed");
+}
+
 }  // namespace
 
 // Each class is bound before the functions that take or return it, so that their signatures name it.
 PYBIND11_MODULE(_sagitta, m) {
   m.doc() = "Sagitta: tessellate Bézier surfaces and certify the distance to the exact surface";
   py::register_exception<InputError>(m, "InputError", PyExc_ValueError);
+  py::register_exception<BudgetExhausted>(m, "Interrupted", PyExc_RuntimeError);
+  py::register_exception<MemoryLimitExceeded>(m, "MemoryLimitExceeded", PyExc_MemoryError);
+  bind_budget(m);
   bind_model(m);
   bind_mesh(m);
   bind_tessellate(m);
