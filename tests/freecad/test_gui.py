@@ -375,10 +375,7 @@ def sampled_mesh_to_shape(mesh, shape, samples=150):
 # (shape, scheme) pairs whose Validate is not certified because of the C++ part certificate, with
 # its reason (certificate.faces[].reason of `sagitta validate PART.brep --json`): reported, see
 # docs/FREECAD.md. The test checks that exactly these, and only on the faces named, are not certified.
-KNOWN_UNCERTIFIED = {
-    ("FilletedBox", "esc"): "the face has a pole (a degenerated edge) and is re-triangulated inside its loops",
-    ("Sphere", "esc"): "the face has a pole (a degenerated edge) and is re-triangulated inside its loops",
-}
+KNOWN_UNCERTIFIED = {}  # (shape, scheme) -> the reason its uncertified faces must give; none left
 
 
 def check_primitives(watcher, shots):

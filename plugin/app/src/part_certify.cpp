@@ -40,12 +40,14 @@ struct SubPart {
   double snapped = 0.0;  // the largest control-point move of snap_collapsed_sides
 };
 
-// A side whose control points all lie within 1e-10 of the patch's size of its first one (a sphere's
-// or cone's pole after OCCT's conversion, equal but for rounding) is made exactly collapsed, so that
-// the certifier recognises it (it reconstructs the triangles a scheme drops there). The surface moves
-// by at most the largest control-point move (a convex combination, weights positive), returned.
+// A side whose control points all lie within 1e-4 of the patch's size of its first one is made
+// exactly collapsed, so that the certifier recognises it (it reconstructs the triangles a scheme
+// drops there): a sphere's or cone's pole after OCCT's conversion (equal but for rounding), or a
+// B-spline face closing at a degenerated edge within the B-rep's tolerance (shell1: 1e-6 apart,
+// where the mesh has one vertex). The surface moves by at most the largest control-point move (a
+// convex combination, weights positive), returned and added to the bounds.
 double snap_collapsed_sides(BezierPatch& patch) {
-  const double tol = 1e-10 * control_box(patch).diagonal();
+  const double tol = 1e-4 * control_box(patch).diagonal();
   double moved = 0.0;
   const int n = patch.degree_u, m = patch.degree_v;
   const auto snap = [&](auto&& point, int count) {
@@ -166,12 +168,12 @@ struct Pieces {
   std::vector<uint32_t> source;  // per piece: index into the face's triangle list
 };
 
-Pieces cut_along_grid(const occt::PartMesh& part, const Grid& g, const std::vector<uint32_t>& triangles,
+Pieces cut_along_grid(const occt::PartMesh& part, const Grid& g, const std::vector<Triangle>& vertices,
                       const std::vector<std::array<Vec2, 3>>& corner_uv) {
   const PatchGrid cells{g.f.u_breaks, g.f.v_breaks, g.f.u_period, g.f.v_period, g.f.reversed};
   Pieces out;
-  for (size_t k = 0; k < triangles.size(); ++k) {
-    const Triangle& tri = part.mesh.triangles[triangles[k]];
+  for (size_t k = 0; k < vertices.size(); ++k) {
+    const Triangle& tri = vertices[k];
     const Vec3 X[3] = {part.mesh.positions[tri[0]], part.mesh.positions[tri[1]], part.mesh.positions[tri[2]]};
     for (const GridPiece& piece : sagitta::cut_along_grid(corner_uv[k], cells)) {
       const uint32_t base = static_cast<uint32_t>(out.mesh.positions.size());
@@ -291,7 +293,13 @@ class EdgeChain {
     list.push_back({mid});
     return list.back();
   }
-  int sign(uint32_t a, uint32_t b) const { return a < b ? 1 : -1; }
+  // +1 / -1 for the direction a -> b; an edge from a vertex to itself (along a pole's segment) by its
+  // direction in (U, V).
+  int sign(uint32_t a, uint32_t b, const Vec2& uv_a, const Vec2& uv_b) const {
+    if (a != b) return a < b ? 1 : -1;
+    const Vec2 d = periodic_difference(g_, uv_b - uv_a);
+    return d.x > 0.0 || (d.x == 0.0 && d.y > 0.0) ? 1 : -1;
+  }
   const std::map<std::pair<uint32_t, uint32_t>, std::vector<EdgeUse>>& uses() const { return map_; }
 
  private:
@@ -304,7 +312,7 @@ class EdgeChain {
 // triangle has one orientation, and the triangles' oriented boundary equals the chords' chain (up to
 // one global sign). Then, by the degree of the map, each point inside the polygon lies in exactly
 // one triangle. Fills chord_triangle (per chord: the triangle on it).
-std::string tiling_reason(const occt::PartMesh& part, const Grid& g, const std::vector<uint32_t>& triangles,
+std::string tiling_reason(const Grid& g, const std::vector<Triangle>& vertices,
                           const std::vector<std::array<Vec2, 3>>& corner_uv, std::vector<uint32_t>& chord_triangle) {
   const occt::PartFace& f = g.f;
   int orientation = 0;
@@ -318,16 +326,18 @@ std::string tiling_reason(const occt::PartMesh& part, const Grid& g, const std::
     if (s != orientation) return "the triangles fold over in (U, V) (both orientations)";
   }
   EdgeChain chain(g, 1e-7 * g.range());
-  for (size_t k = 0; k < triangles.size(); ++k) {
-    const Triangle& tri = part.mesh.triangles[triangles[k]];
+  for (size_t k = 0; k < vertices.size(); ++k) {
+    const Triangle& tri = vertices[k];
     for (int c = 0; c < 3; ++c) {
       const uint32_t a = tri[c], b = tri[(c + 1) % 3];
-      EdgeUse& e = chain.use(a, b, 0.5 * (corner_uv[k][c] + corner_uv[k][(c + 1) % 3]));
-      e.triangles += chain.sign(a, b);
+      const Vec2 &uv_a = corner_uv[k][c], &uv_b = corner_uv[k][(c + 1) % 3];
+      EdgeUse& e = chain.use(a, b, 0.5 * (uv_a + uv_b));
+      e.triangles += chain.sign(a, b, uv_a, uv_b);
       e.triangle = static_cast<uint32_t>(k);
     }
   }
-  for (const occt::BoundaryChord& c : f.chords) chain.use(c.a, c.b, 0.5 * (c.uv_a + c.uv_b)).chords += chain.sign(c.a, c.b);
+  for (const occt::BoundaryChord& c : f.chords)
+    chain.use(c.a, c.b, 0.5 * (c.uv_a + c.uv_b)).chords += chain.sign(c.a, c.b, c.uv_a, c.uv_b);
   int global = 0;
   for (const auto& [key, list] : chain.uses()) {
     for (const EdgeUse& e : list) {
@@ -425,16 +435,24 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
     return fc;
   }
   std::string reason;
-  const std::vector<std::array<Vec2, 3>> corner_uv = corner_uvs(part, g, triangles, reason);
+  // The emitted triangles, then the (U, V) triangles collapsed at a pole (PartFace::collapsed): both
+  // tile the loops' polygon; a collapsed one is certified as the mesh edge it collapses onto.
+  std::vector<std::array<Vec2, 3>> corner_uv = corner_uvs(part, g, triangles, reason);
   if (!reason.empty()) {
     fc.reason = reason;
     return fc;
+  }
+  std::vector<Triangle> vertices;
+  for (const uint32_t t : triangles) vertices.push_back(part.mesh.triangles[t]);
+  for (const occt::PartFace::CollapsedTriangle& c : f.collapsed) {
+    vertices.push_back(c.vertices);
+    corner_uv.push_back(c.uv);
   }
   Model model;
   model.name = part.name + " " + f.name;
   model.patches.assign(part.model.patches.begin() + f.first_patch,
                        part.model.patches.begin() + f.first_patch + f.patch_count);
-  const Pieces pieces = cut_along_grid(part, g, triangles, corner_uv);
+  const Pieces pieces = cut_along_grid(part, g, vertices, corner_uv);
   if (pieces.mesh.triangles.empty()) {
     fc.reason = "no triangle of the face has a non-degenerate (U, V) image";
     return fc;
@@ -453,8 +471,9 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   cut.in_domain = [&g](uint32_t local, Vec2 st) { return !near_a_chord(g, g.to_uv(local, st)); };
   DistanceReport d = certify_distance(model, pieces.mesh, cut);
 
-  // Per triangle: its pieces' bound, plus the rounding of the pieces' corners (affine combinations).
-  std::vector<double> base(triangles.size(), 0.0);
+  // Per triangle (and collapsed triangle): its pieces' bound, plus the rounding of the pieces' corners
+  // (affine combinations).
+  std::vector<double> base(vertices.size(), 0.0);
   for (size_t k = 0; k < pieces.source.size(); ++k) {
     const double rounding = 8.0 * kUnit * glm::length(pieces.mesh.positions[pieces.mesh.triangles[k][0]]);
     base[pieces.source[k]] = std::max(base[pieces.source[k]], d.triangle_upper[k] + rounding);
@@ -467,7 +486,7 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   const double lipschitz = metric_lipschitz(gram, f.chord_metric);
   const double gap = (std::sqrt(gram.uu) + std::sqrt(gram.vv)) * 1e-12 * g.range();
   std::vector<uint32_t> chord_triangle;
-  const std::string tiling = tiling_reason(part, g, triangles, corner_uv, chord_triangle);
+  const std::string tiling = tiling_reason(g, vertices, corner_uv, chord_triangle);
   double face_upper = 0.0;
   for (const double u : upper) face_upper = std::max(face_upper, u + gap);
   bool deviations_proven = true;
@@ -486,9 +505,7 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   raise_lower_on_curves(f, pieces.mesh, fc.surface_to_mesh);
   fc.mesh_to_surface.upper = face_upper;
   fc.surface_to_mesh.upper = face_upper;
-  if (!f.chord_note.empty()) {
-    fc.reason = f.chord_note;
-  } else if (!tiling.empty()) {
+  if (!tiling.empty()) {
     fc.reason = tiling;
   } else if (!deviations_proven) {
     fc.reason = "a trimming curve's deviation from its chords is not proven (its p-curve has no exact Bézier form)";

@@ -547,7 +547,9 @@ EdgePlan plan_edge(const PartOptions& options, const ShapeIndex& x, const std::v
     for (int k = 0; k <= n; ++k) plan.t.push_back(k == n ? last : first + (last - first) * k / n);
   }
   double tol = options.edge_tolerance;
-  if (options.scheme.scheme == Scheme::kEsc && options.scheme.threshold > 0.0)
+  // ESC's threshold refines the edges it did not sample itself; an owned edge keeps the owner's ESC
+  // side vertices (refining them would take the owner off its own triangles, into the loops route).
+  if (options.scheme.scheme == Scheme::kEsc && options.scheme.threshold > 0.0 && !owned)
     tol = tol > 0.0 ? std::min(tol, options.scheme.threshold) : options.scheme.threshold;
   if (curve && tol > 0.0) refine_to_tolerance(*curve, plan.t, tol, size_t(1) << 16);
   return plan;
@@ -718,11 +720,9 @@ BoundaryChord bound_chord(const FaceGeometry& g, const RangeCurve& rc, const Loo
 bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& points,
                 std::vector<std::array<uint32_t, 2>>& segments, std::vector<int>& segment_edge, PartFace& pf,
                 std::vector<PoleLine>* pole_lines = nullptr, std::vector<BoundaryChord>* chords = nullptr) {
-  // A degenerated edge (pole, apex) is one mesh vertex but a segment in (U, V). Were its samples
-  // kept apart, the CDT could join one point to two of them, and the two triangles would fold onto
-  // the same edge in space; so every loop point at that vertex moves to one point, the segment's
-  // middle, and the segment itself is left out (the triangles there fan around the pole).
-  std::map<uint32_t, Vec2> pole;
+  // A degenerated edge (pole, apex) is one mesh vertex but a segment in (U, V): its samples stay
+  // apart in (U, V), all at that vertex. The CDT's triangles with two corners on the segment collapse
+  // onto an edge in space and are left out (emit_triangle records them in PartFace::collapsed).
   std::vector<std::pair<uint32_t, uint32_t>> ranges;  // per edge: [first, last) in points
   std::vector<int> range_edge;
   std::vector<RangeCurve> range_curve;
@@ -760,12 +760,7 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
     };
     const Vec2 end = raw(reversed ? first : last);
     previous_end = Vec2(end.x + shift.x, end.y + shift.y);
-    if (s.degenerated) {
-      const Vec2 UV = uv_at(0.5 * (first + last));
-      pole.emplace(s.vertex.front(), Vec2(UV.x * g.su, UV.y * g.sv));
-      if (pole_lines) pole_lines->push_back({uv_at(first), uv_at(last), s.vertex.front()});
-      return;
-    }
+    if (s.degenerated && pole_lines) pole_lines->push_back({uv_at(first), uv_at(last), s.vertex.front()});
     const uint32_t start = static_cast<uint32_t>(points.size());
     for (size_t k = 0; k < s.t.size(); ++k) {
       const Vec2 UV = uv_at(s.t[k]);
@@ -803,11 +798,6 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
   // stay apart.
   std::map<uint32_t, std::vector<Vec2>> copies;
   for (LoopPoint& p : points) {
-    const auto it = pole.find(p.vertex);
-    if (it != pole.end()) {
-      p.q = it->second;
-      continue;
-    }
     std::vector<Vec2>& seen = copies[p.vertex];
     const double tol = b.vertex_tolerance[p.vertex];
     bool merged = false;
@@ -833,16 +823,17 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
   return true;
 }
 
-// Appends triangle (a, b, c) of face g to the part (skipping one whose corners are not distinct
-// vertices: the fan at a pole). uv are the corners' (U, V).
+// Appends triangle (a, b, c) of face g to the part. uv are the corners' (U, V). One whose corners
+// are not distinct vertices (two on a pole's segment) is not emitted but kept in pf.collapsed.
 void emit_triangle(PartBuilder& b, const FaceGeometry& g, PartFace& pf, std::array<uint32_t, 3> tri,
                    std::array<Vec2, 3> uv) {
-  if (tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0]) {
-    ++b.out.mesh.degenerate_triangles;
-    return;
-  }
   const auto [centre, shift] = wrap_uv(g, (uv[0] + uv[1] + uv[2]) / 3.0);
   for (Vec2& c : uv) c -= shift;
+  if (tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0]) {
+    ++b.out.mesh.degenerate_triangles;
+    pf.collapsed.push_back({tri, uv});
+    return;
+  }
   const int patch = locate_patch(g, centre.x, centre.y).first;
   const int i = patch / g.nv, j = patch % g.nv;
   std::array<Vec2, 3> st;
@@ -984,7 +975,9 @@ bool try_keep_whole_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, co
     if (vertex[v] == kNone) return false;
   }
   for (size_t k = 0; k < loop.size(); ++k) {
-    if (!matched[k]) return false;
+    // A pole's samples (one vertex) need no partner: the scheme's side there collapses to it too.
+    const bool at_pole = std::any_of(poles.begin(), poles.end(), [&](const PoleLine& p) { return p.vertex == loop[k].vertex; });
+    if (!matched[k] && !at_pole) return false;
   }
   for (size_t v = 0; v < m.positions.size(); ++v) {
     if (vertex[v] != kNone) continue;
@@ -1086,10 +1079,6 @@ bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
   if (try_keep_whole_face(b, g, pf, loop, poles)) return true;
   pf.chords = std::move(chords);
   pf.chord_metric = Vec2(g.su, g.sv);
-  if (!poles.empty()) {
-    pf.chord_note = "the face has a pole (a degenerated edge) and is re-triangulated inside its loops: the "
-                    "region at the pole is not bounded";
-  }
   if (segments.size() < 2) {
     pf.reason = "the face's boundary has no extent in its parameters";
     return false;

@@ -73,11 +73,19 @@ struct PartFace {
   std::vector<double> u_breaks, v_breaks;
   bool reversed = false;
   double u_period = 0.0, v_period = 0.0;
-  // A face re-triangulated inside its loops (not kept_whole): the loops' chords, and why their
-  // deviations from the trimming curves are not all proven ("" when they are).
+  // A face re-triangulated inside its loops (not kept_whole): the loops' chords (a pole's segment
+  // included, from the pole to itself).
   std::vector<BoundaryChord> chords;
   Vec2 chord_metric{1.0};  // the scale of U and V in which chord deviations are measured
-  std::string chord_note;
+  // A face re-triangulated inside its loops with a pole (a degenerated edge: one mesh vertex, a
+  // segment in (U, V)): the (U, V) triangles with two corners on that segment, left out of the mesh
+  // because they collapse onto the edge from their third corner to the pole. With the emitted
+  // triangles they tile the loops' polygon; the certificate bounds the surface above them.
+  struct CollapsedTriangle {
+    std::array<uint32_t, 3> vertices{};  // mesh vertices (two are the pole's)
+    std::array<Vec2, 3> uv{};            // (U, V), oriented as the face's emitted triangles
+  };
+  std::vector<CollapsedTriangle> collapsed;
 };
 
 // A solid of the B-rep, as OCCT sees it.
