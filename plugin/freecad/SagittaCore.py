@@ -250,7 +250,8 @@ def memory_limit():
 
 
 def gib(nbytes):
-    return "%.1f GiB" % (nbytes / 2.0 ** 30) if nbytes >= 2 ** 30 / 10 else "%.0f MiB" % (nbytes / 2.0 ** 20)
+    """Bytes in GiB (one decimal), or in MiB below 1 GiB."""
+    return "%.1f GiB" % (nbytes / 2.0 ** 30) if nbytes >= 2 ** 30 else "%.0f MiB" % (nbytes / 2.0 ** 20)
 
 
 def estimate_models(links):

@@ -267,11 +267,12 @@ class ValidatePanel:
 
     @staticmethod
     def part_legend_rows(layout, report, label):
-        """The colour scale of a whole part's per-triangle certified error, and the colour of the
-        triangles whose face is not certified (no bound: not on the scale)."""
-        layout.addRow(label("Per-triangle certified error (model units):"))
-        layout.addRow(LegendWidget(report.get("colour_scale_top", 0.0)))
+        """The colour scale of a whole part's per-triangle certified error (when a face is certified),
+        and the colour of the triangles whose face is not certified (no bound: not on the scale)."""
         uncertified = report.get("uncertified_triangles", 0)
+        if uncertified < len(report.get("triangle_error", ())):  # a scale only for bounds there are
+            layout.addRow(label("Per-triangle certified error (model units):"))
+            layout.addRow(LegendWidget(report.get("colour_scale_top", 0.0)))
         if uncertified:
             r, g, b = (int(255 * c) for c in SagittaCore.UNCERTIFIED_COLOUR)
             layout.addRow(label("<span style='color:#%02x%02x%02x'>&#9632;</span> magenta: %d triangles on faces "
