@@ -145,6 +145,16 @@ class CliAgreementTest(unittest.TestCase):
             self.assertLess(time.perf_counter() - start, 5.0)
             self.assertLess(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before, 50 * 1024)  # KiB
             self.assertEqual(_sagitta.tessellate(teapot, level=3)[1]["triangles"], stats["triangles"])
+            # Validation estimates its own memory (512 bytes a triangle): the teapot at level 7 (a
+            # million triangles) is made under 256 MiB, its validation refused before it starts.
+            _sagitta.set_max_memory(256 * 2 ** 20)
+            big, _ = _sagitta.tessellate(teapot, level=7)
+            before, start = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, time.perf_counter()
+            with self.assertRaises(_sagitta.MemoryLimitExceeded) as refused:
+                _sagitta.validate(teapot, big)
+            self.assertIn("validating %d triangles would need about" % big.triangle_count, str(refused.exception))
+            self.assertLess(time.perf_counter() - start, 1.0)
+            self.assertLess(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before, 50 * 1024)  # KiB
         finally:
             _sagitta.reset_budget()
         self.assertEqual(_sagitta.max_memory(), 0.0)

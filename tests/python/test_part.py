@@ -90,6 +90,12 @@ class PartTest(unittest.TestCase):
             self.assertIn("more than --max-memory 0.25 GiB", str(refused.exception))
             self.assertIsInstance(refused.exception, MemoryError)
             self.assertEqual(_sagitta.mesh_part(path, level=2).mesh.triangle_count, small.mesh.triangle_count)
+            _sagitta.set_max_memory(512.0 * small.mesh.triangle_count - 1)  # certify_part's estimate: just over
+            with self.assertRaises(_sagitta.MemoryLimitExceeded) as refused:
+                _sagitta.certify_part(small)
+            self.assertIn("certifying %d triangles" % small.mesh.triangle_count, str(refused.exception))
+            _sagitta.set_max_memory(512.0 * small.mesh.triangle_count)
+            self.assertTrue(_sagitta.certify_part(small)["certified"])
         finally:
             _sagitta.reset_budget()
         self.assertEqual(_sagitta.max_memory(), 0.0)
