@@ -214,8 +214,9 @@ def model_to_bpt(model):
 # Memory: an estimate checked before starting
 
 # Peak memory per triangle of the workbench's work, measured (growth of ru_maxrss): Tessellate of
-# the teapot into a FreeCAD mesh 782 bytes; Validate 543 (the mesh re-made and certified) plus the
-# colours; a whole part (a cylinder) 363 to mesh and 250 more to certify. Rounded up, with a margin.
+# the teapot into a FreeCAD mesh 780 bytes (levels 7 and 8: 1 and 4 million triangles); Validate 543
+# (the mesh re-made and certified) plus the colours; a whole part (a cylinder, 0.6 and 2.4 million
+# triangles) 810-833 into a FreeCAD mesh (363 of it the library's), Validate 200-265 more. Rounded up.
 BYTES_PER_TRIANGLE = 1024
 # Without a preference, the share of the memory available now that one command may use.
 AVAILABLE_SHARE = 0.8
