@@ -837,6 +837,7 @@ def validate_mesh_object(mesh_obj, links, max_depth=None):
     placement = mesh_obj.Placement
     positions = [tuple(placement.multVec(p)) for p in points]
     mesh = _sagitta.mesh_from_arrays(positions, facets)
+    set_library_memory_limit()  # the library's estimates (its reference tessellation, the validation) check it
     return run_validation(model, mesh, depth)
 
 
