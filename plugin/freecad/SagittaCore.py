@@ -52,6 +52,7 @@ def preferences():
         "threshold": p.GetFloat("DefaultThreshold", 0.01),
         "target_error": p.GetFloat("DefaultTargetError", 0.01),
         "max_depth": p.GetInt("MaxDepth", 8),
+        "max_memory_mib": p.GetInt("MaxMemoryMiB", 0),
     }
 
 
@@ -170,8 +171,8 @@ def mesh_part(links, name, params):
     text = part_brep_text(links)
     try:
         return _sagitta.mesh_part_brep(text, name, **part_parameters(params))
-    except ValueError as error:
-        raise SagittaError(str(error))
+    except (ValueError, MemoryError) as error:
+        raise library_error(error)
 
 
 def part_face_notes(part, names):
@@ -207,6 +208,148 @@ def model_to_bpt(model):
                 values.append(repr(float(weights[k])))
             lines.append(" ".join(values))
     return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------------------------------
+# Memory: an estimate checked before starting
+
+# Peak memory per triangle of the workbench's work, measured (growth of ru_maxrss): Tessellate of
+# the teapot into a FreeCAD mesh 780 bytes (levels 7 and 8: 1 and 4 million triangles); Validate 543
+# (the mesh re-made and certified) plus the colours; a whole part (a cylinder, 0.6 and 2.4 million
+# triangles) 810-833 into a FreeCAD mesh (363 of it the library's), Validate 200-265 more. Rounded up.
+BYTES_PER_TRIANGLE = 1024
+# Without a preference, the share of the memory available now that one command may use.
+AVAILABLE_SHARE = 0.8
+
+
+def available_memory():
+    """Bytes the system can give now without swapping (MemAvailable in /proc/meminfo; else the free
+    physical pages); None when the system does not say."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def memory_limit():
+    """(bytes one command may use, how that was chosen): the preference "Maximum memory" (MiB) when
+    set, else AVAILABLE_SHARE of available_memory(); (None, reason) when neither is known."""
+    mib = preferences()["max_memory_mib"]
+    if mib > 0:
+        return mib * 2.0 ** 20, "the Maximum memory preference"
+    available = available_memory()
+    if available is None:
+        return None, "the available memory is unknown"
+    return AVAILABLE_SHARE * available, "%d%% of the memory available now" % round(100 * AVAILABLE_SHARE)
+
+
+def gib(nbytes):
+    """Bytes in GiB (one decimal), or in MiB below 1 GiB."""
+    return "%.1f GiB" % (nbytes / 2.0 ** 30) if nbytes >= 2 ** 30 else "%.0f MiB" % (nbytes / 2.0 ** 20)
+
+
+def estimate_models(links):
+    """The patch models whose sizes estimate the work on the linked source: a part (is_part_source)
+    its faces' patches and its trimmed faces' whole patches, a patch model itself."""
+    try:
+        if is_part_source(links):
+            cad = _sagitta.read_brep_string(part_brep_text(links), "selection")
+            return [cad["model"], cad["trimmed_model"]]
+        return [shape_model(links)[0]]
+    except ValueError as error:
+        raise SagittaError(str(error))
+
+
+def estimated_triangles(models, params):
+    """Triangles the parameters make at most on the models (estimate_models), computed without
+    tessellating: the library's estimated_triangles (esc its full pattern, pn its base times the pattern)."""
+    keys = ("scheme", "level", "segments", "base_level")
+    try:
+        return sum(_sagitta.estimated_triangles(m, **{k: v for k, v in params.items() if k in keys})
+                   for m in models if m.patch_count)
+    except ValueError as error:
+        raise SagittaError(str(error))
+
+
+def parameter_words(params):
+    """The parameter a user lowers to shrink the work, and its value: ("Segments", 5000) or ("Level", 10)."""
+    return ("Segments", params["segments"]) if "segments" in params else ("Level", params["level"])
+
+
+def largest_that_fits(models, params, limit, need):
+    """The largest value below the current one of the parameter parameter_words names (the others
+    kept) whose estimate fits in `limit` bytes (`need`: the current value's); None when none does."""
+    key, value = parameter_words(params)
+    name = key.lower()
+    lowest = 1 if key == "Segments" or params["scheme"] == "pn" else 0
+    candidate = value - 1
+    if key == "Segments" or params["scheme"] == "pn":  # the estimate grows as N^2: start near the answer
+        candidate = min(candidate, int(value * math.sqrt(limit / need)) + 1)
+    while candidate >= lowest:
+        if estimated_triangles(models, dict(params, **{name: candidate})) * BYTES_PER_TRIANGLE <= limit:
+            return candidate
+        candidate -= 1
+    return None
+
+
+class MemoryRefused(SagittaError):
+    """The work would need more memory than Sagitta may use: refused before anything is allocated."""
+
+
+def set_library_memory_limit():
+    """Hands memory_limit() to the library (set_max_memory): its estimates and allocation sites refuse
+    work beyond it (MemoryLimitExceeded). Returns the limit and how it was chosen."""
+    limit, source = memory_limit()
+    if limit is not None:
+        _sagitta.set_max_memory(limit)
+    return limit, source
+
+
+def check_memory(links, params, what="Tessellate"):
+    """Refuses (MemoryRefused, before anything is allocated) work whose estimate
+    (estimated_triangles x BYTES_PER_TRIANGLE) exceeds memory_limit(), with the largest parameter
+    that fits: "Tessellate: Level 10 would need about 64.0 GiB of memory, more than the 18.4 GiB
+    available (80% of the memory available now); choose Level <= 8". Also hands the limit to the
+    library (set_max_memory), whose estimates and allocation sites then refuse what this missed."""
+    limit, source = set_library_memory_limit()
+    if limit is None:
+        return
+    models = estimate_models(links)
+    need = estimated_triangles(models, params) * BYTES_PER_TRIANGLE
+    if need <= limit:
+        return
+    key, value = parameter_words(params)
+    fits = largest_that_fits(models, params, limit, need)
+    advice = ("choose %s ≤ %d" % (key, fits) if fits is not None
+              else "select fewer faces or free memory")
+    raise MemoryRefused("%s: %s %d would need about %s of memory, more than the %s available (%s); %s" % (
+        what, key, value, gib(need), gib(limit), source, advice))
+
+
+def memory_words(text):
+    """A library memory refusal ("... more than --max-memory 4.5 GiB; lower --level or raise
+    --max-memory") in the workbench's words."""
+    text = re.sub(r"more than --max-memory ([0-9.eE+-]+ GiB)", r"more than the \1 Sagitta may use", str(text))
+    text = text.replace(" or --copies", "")
+    text = text.replace("raise --max-memory", "free memory (Maximum memory: Sagitta preferences)")
+    return in_property_words(text)
+
+
+def library_error(error):
+    """A library exception as SagittaError: a memory refusal (MemoryLimitExceeded) or a failed
+    allocation as MemoryRefused in the workbench's words, anything else with the library's message."""
+    if isinstance(error, _sagitta.MemoryLimitExceeded):
+        return MemoryRefused(memory_words(error))
+    if isinstance(error, MemoryError):
+        return MemoryRefused("out of memory (%s); lower Level or Segments, or free memory" % (error or "no message"))
+    return SagittaError(str(error))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -304,6 +447,7 @@ class TessellationFeature:
         """Rebuilds the mesh from the source; clears validation results (they belong to the old mesh).
         A part source (solids or shells) is meshed whole (mesh_part_brep): one mesh segment and one
         TriangleFace entry per B-rep face; other sources go through the patch model."""
+        check_memory(obj.Source, scheme_parameters(obj))
         if is_part_source(obj.Source):
             part = mesh_part(obj.Source, obj.Label, scheme_parameters(obj))
             obj.Mesh = to_freecad_mesh(part.mesh, part.triangle_face)
@@ -373,8 +517,8 @@ def tessellate_model(model, params):
     """Runs a scheme; invalid parameters become SagittaError with the library's message."""
     try:
         return _sagitta.tessellate(model, **params)
-    except ValueError as error:
-        raise SagittaError(str(error))
+    except (ValueError, MemoryError) as error:
+        raise library_error(error)
 
 
 def face_colours(triangle_face):
@@ -435,7 +579,8 @@ def make_tessellation(doc, links, scheme=None, level=None, threshold=None, base_
                       commit=True):
     """Creates a tessellation feature of `links` [(object, [sub-element names])] in one transaction
     and recomputes it. Parameters left None come from the preferences. Raises SagittaError (and
-    leaves the document unchanged) for an empty selection, unsupported faces or bad parameters.
+    leaves the document unchanged) for an empty selection, unsupported faces or bad parameters, and
+    MemoryRefused (check_memory) before anything is added for work beyond the memory Sagitta may use.
     commit=False leaves the transaction open: the caller commits it (the creation panel's OK) or
     aborts it (its Cancel: no feature). The feature has FreeCAD's default mesh view;
     SagittaGui.attach_view_provider adds the workbench's."""
@@ -448,6 +593,8 @@ def make_tessellation(doc, links, scheme=None, level=None, threshold=None, base_
         part_brep_text(links)
     else:
         shape_model(links)
+    check_memory(links, {"scheme": scheme or prefs["scheme"], "level": prefs["level"] if level is None else level,
+                         "base_level": 2 if base_level is None else base_level})
 
     def work():
         obj = doc.addObject("Mesh::FeaturePython", "Tessellation")
@@ -505,6 +652,19 @@ def error_colours(errors, top):
     return colours
 
 
+# A triangle with no certified bound (its face is not certified): a colour outside the error scale.
+UNCERTIFIED_COLOUR = (1.0, 0.0, 1.0)  # magenta
+
+
+def certified_error_colours(errors):
+    """(per-triangle colours, scale top): error_colours over the certified (finite) bounds, the
+    scale's top their maximum; a triangle without one (inf: its face not certified) UNCERTIFIED_COLOUR."""
+    finite = [e for e in errors if math.isfinite(e)]
+    top = max(finite) if finite else 0.0
+    scale = iter(error_colours(finite, top))
+    return [next(scale) if math.isfinite(e) else UNCERTIFIED_COLOUR for e in errors], top
+
+
 def legend_colour(t):
     """Colour at position t in [0, 1] of the error scale (blue, cyan, green, yellow, red)."""
     stops = [(0.0, 0.0, 1.0), (0.0, 1.0, 1.0), (0.0, 1.0, 0.0), (1.0, 1.0, 0.0), (1.0, 0.0, 0.0)]
@@ -520,8 +680,9 @@ def validate_tessellation(obj, max_depth=None):
     the feature in one transaction. Returns the report (the fields of `sagitta validate --json`)."""
     if not is_tessellation(obj):
         raise SagittaError("%s is not a Sagitta tessellation" % obj.Label)
+    check_memory(obj.Source, scheme_parameters(obj), "Validate")
     if obj.WholePart:
-        return validate_part(obj)
+        return validate_part(obj, max_depth)
     depth = preferences()["max_depth"] if max_depth is None else max_depth
     model, _ = shape_model(obj.Source, obj.Label)
     mesh, _ = tessellate_model(model, scheme_parameters(obj))
@@ -555,8 +716,8 @@ def part_certificate(part, max_depth):
     Library errors become SagittaError."""
     try:
         return _sagitta.certify_part(part, max_depth=max_depth)
-    except ValueError as error:
-        raise SagittaError(str(error))
+    except (ValueError, MemoryError) as error:
+        raise library_error(error)
 
 
 def certificate_text(certificate, part, names):
@@ -573,11 +734,14 @@ def validate_part(obj, max_depth=None):
     """Watertightness of a whole-part feature, per solid (the library's check_solids on the part
     re-meshed exactly as execute did: the mesher is deterministic), and its distance certificate face
     by face (part_certificate, on the same mesh). Stores the verdict, the interval (ErrorUpper inf
-    unless every face is certified) and Certification on the feature in one transaction and returns
+    unless every face is certified), Certification and the colours by certified error per triangle
+    (certified_error_colours: magenta where a face is not certified) on the feature in one
+    transaction, switches the view's Coloring on, and returns
     the report: {"kind": "part", "label", "triangles", "vertices", "faces", "faces_trimmed",
     "faces_skipped", "distance" (Certification's text), "hausdorff" (the part's interval), "certified",
     "face_certificates" ([{name, route, certified, lower, upper, reason}]), "seconds", "solids":
-    [check_solids' dict plus "brep_closed", "brep_valid", "brep_volume" (-1: faces outside every solid)]}."""
+    [check_solids' dict plus "brep_closed", "brep_valid", "brep_volume" (-1: faces outside every solid)],
+    "triangle_error" (per triangle, inf where not certified), "colour_scale_top", "uncertified_triangles"}."""
     depth = preferences()["max_depth"] if max_depth is None else max_depth
     part = mesh_part(obj.Source, obj.Label, scheme_parameters(obj))
     start = time.perf_counter()
@@ -592,6 +756,11 @@ def validate_part(obj, max_depth=None):
         check["brep_valid"] = bool(solid and solid["valid"])
         check["brep_volume"] = solid["volume"] if solid else 0.0
     certificate = part_certificate(part, depth)
+    errors = certificate["triangle_error"].tolist()
+    if len(errors) != obj.Mesh.CountFacets:
+        raise SagittaError("%s: the part meshes to %d triangles now, the feature has %d: recompute it, then Validate"
+                           % (obj.Label, len(errors), obj.Mesh.CountFacets))
+    colours, top = certified_error_colours(errors)
     names = freecad_face_names(obj.Source)
     report = {"kind": "part", "label": obj.Label, "triangles": part.mesh.triangle_count,
               "vertices": part.mesh.vertex_count, "faces": len(part.faces), "faces_trimmed": part.faces_trimmed,
@@ -601,15 +770,20 @@ def validate_part(obj, max_depth=None):
               "face_certificates": [dict(name=face_note_name(face, names), **{k: c.get(k) for k in (
                   "route", "certified", "lower", "upper", "reason")})
                   for face, c in zip(part.faces, certificate["faces"])],
-              "seconds": time.perf_counter() - start}
+              "seconds": time.perf_counter() - start,
+              "triangle_error": certificate["triangle_error"], "colour_scale_top": top,
+              "uncertified_triangles": sum(1 for e in errors if not math.isfinite(e))}
 
     def work():
         obj.ErrorLower = report["hausdorff"]["lower"]
         obj.ErrorUpper = certified_upper(report["hausdorff"])
         obj.TopologyVerdict = part_verdict_text(report)
         obj.Certification = report["distance"]
+        obj.FaceColors = colours
         obj.purgeTouched()
     _transaction(obj.Document, "Sagitta validate", work)
+    if FreeCAD.GuiUp:
+        obj.ViewObject.Coloring = True
     return report
 
 
@@ -648,8 +822,8 @@ def part_verdict_text(report):
 def run_validation(model, mesh, max_depth, reference_segments=32):
     try:
         return _sagitta.validate(model, mesh, max_depth=max_depth, reference_segments=reference_segments)
-    except ValueError as error:
-        raise SagittaError(str(error))
+    except (ValueError, MemoryError) as error:
+        raise library_error(error)
 
 
 def validate_mesh_object(mesh_obj, links, max_depth=None):
@@ -663,6 +837,7 @@ def validate_mesh_object(mesh_obj, links, max_depth=None):
     placement = mesh_obj.Placement
     positions = [tuple(placement.multVec(p)) for p in points]
     mesh = _sagitta.mesh_from_arrays(positions, facets)
+    set_library_memory_limit()  # the library's estimates (its reference tessellation, the validation) check it
     return run_validation(model, mesh, depth)
 
 
@@ -819,10 +994,11 @@ def fit_tessellation(obj, target_error):
                            "set Level or Segments and Validate" % obj.Label)
     check_target_error(target_error)
     model, _ = shape_model(obj.Source, obj.Label)
+    set_library_memory_limit()  # the fit's sizes are bounded; its tessellations check this limit as they allocate
     try:
         result = _sagitta.fit(model, obj.Scheme, target_error)
-    except ValueError as error:
-        raise SagittaError(str(error))
+    except (ValueError, MemoryError) as error:
+        raise library_error(error)
     if not result["met"]:
         # The fit's last parameters, not a best possible error: finer ones may do better.
         raise SagittaError("The %s scheme did not meet the target %g: the fit stopped at %s (%d triangles), "

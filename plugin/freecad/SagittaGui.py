@@ -111,7 +111,8 @@ def refresh_colours(obj):
 
 def attach_view_provider(obj):
     """Gives a tessellation feature made by SagittaCore.make_tessellation the workbench's view: icon,
-    double-click editing, two-sided lighting; a whole part coloured by B-rep face."""
+    double-click editing, two-sided lighting; a whole part coloured by B-rep face (after Validate: by
+    certified error)."""
     ViewProviderTessellation(obj.ViewObject)
     obj.ViewObject.Lighting = "Two side"  # patch files orient their normals either way
     if obj.WholePart:
@@ -257,11 +258,25 @@ class ValidatePanel:
             report["label"], report["triangles"], report["faces"], report["faces_trimmed"], report["faces_skipped"])))
         layout.addRow("Distance", label(report["distance"]))
         layout.addRow("Hausdorff", label(interval_text(report["hausdorff"])))
+        ValidatePanel.part_legend_rows(layout, report, label)
         for check in report["solids"]:
             layout.addRow(SagittaCore.solid_name(check), label(SagittaCore.solid_verdict(check)))
             layout.addRow("", label("open edges %d (model boundary %d, cracks %d), T-junctions %d, non-manifold %d" % (
                 check["open_edges"], check["model_boundary_edges"], check["crack_edges"], check["t_junctions"],
                 check["non_manifold_edges"])))
+
+    @staticmethod
+    def part_legend_rows(layout, report, label):
+        """The colour scale of a whole part's per-triangle certified error (when a face is certified),
+        and the colour of the triangles whose face is not certified (no bound: not on the scale)."""
+        uncertified = report.get("uncertified_triangles", 0)
+        if uncertified < len(report.get("triangle_error", ())):  # a scale only for bounds there are
+            layout.addRow(label("Per-triangle certified error (model units):"))
+            layout.addRow(LegendWidget(report.get("colour_scale_top", 0.0)))
+        if uncertified:
+            r, g, b = (int(255 * c) for c in SagittaCore.UNCERTIFIED_COLOUR)
+            layout.addRow(label("<span style='color:#%02x%02x%02x'>&#9632;</span> magenta: %d triangles on faces "
+                                "not certified (no bound)" % (r, g, b, uncertified)))
 
     @staticmethod
     def patch_rows(layout, label, report):
@@ -462,7 +477,8 @@ class ImportCommand:
 
 
 class PreferencesPage:
-    """Default scheme, level, threshold, target error and validation depth for new features."""
+    """Default scheme, level, threshold, target error and validation depth for new features; the
+    memory a command may use."""
 
     def __init__(self, parent=None):
         self.form = QtGui.QWidget(parent)
@@ -485,6 +501,13 @@ class PreferencesPage:
         layout.addRow("Default esc threshold", self.threshold)
         layout.addRow("Default target error", self.target)
         layout.addRow("Validation depth budget", self.depth)
+        self.memory = QtGui.QSpinBox()
+        self.memory.setRange(0, 1 << 24)
+        self.memory.setSuffix(" MiB")
+        self.memory.setSpecialValueText("automatic (%d%% of the available memory)"
+                                        % round(100 * SagittaCore.AVAILABLE_SHARE))
+        self.memory.setToolTip("Tessellate, Validate and Fit refuse, before starting, work estimated to need more")
+        layout.addRow("Maximum memory", self.memory)
 
     def loadSettings(self):
         p = SagittaCore.preferences()
@@ -493,6 +516,7 @@ class PreferencesPage:
         self.threshold.setValue(p["threshold"])
         self.target.setValue(p["target_error"])
         self.depth.setValue(p["max_depth"])
+        self.memory.setValue(p["max_memory_mib"])
 
     def saveSettings(self):
         p = FreeCAD.ParamGet(SagittaCore.PARAM_PATH)
@@ -501,6 +525,7 @@ class PreferencesPage:
         p.SetFloat("DefaultThreshold", self.threshold.value())
         p.SetFloat("DefaultTargetError", self.target.value())
         p.SetInt("MaxDepth", self.depth.value())
+        p.SetInt("MaxMemoryMiB", self.memory.value())
 
 
 COMMANDS = ["Sagitta_Tessellate", "Sagitta_Validate", "Sagitta_Fit", "Sagitta_Import"]

@@ -16,6 +16,7 @@
 #include "sagitta/mesh_check.hpp"
 #include "sagitta/occt/cad.hpp"
 #include "sagitta/occt/part.hpp"
+#include "sagitta/pn.hpp"
 #include "sagitta/scheme.hpp"
 #include "sagitta/solid_check.hpp"
 #include "sagitta/uniform.hpp"
@@ -219,6 +220,10 @@ py::dict cad_dict(const occt::CadModel& cad) {
   d["solids"] = cad.solids;
   d["shells"] = cad.shells;
   d["whole_part"] = occt::is_whole_part(cad);
+  Model trimmed;
+  trimmed.name = cad.model.name;
+  trimmed.patches = cad.trimmed_patches;
+  d["trimmed_model"] = trimmed;  // the trimmed faces' patches (untrimmed): what a whole part meshes more
   return d;
 }
 
@@ -321,6 +326,26 @@ void bind_tessellate(py::module_& m) {
       py::arg("pn_variant") = "basic", py::arg("tess_factor") = -1.0, py::arg("max_triangles") = uint64_t{200'000'000},
       "Tessellate with a scheme (uniform | esc | pn), parameters as in `sagitta tessellate`; returns (Mesh, stats "
       "dict)");
+  m.def(
+      "estimated_triangles",
+      [](const Model& model, const std::string& scheme, int level, int segments, int base_level) {
+        SchemeSpec spec;
+        spec.scheme = parse_scheme(scheme);
+        spec.level = level;
+        spec.segments = segments;
+        spec.base_level = base_level;
+        double triangles = estimated_triangles(model, spec);
+        if (spec.scheme == Scheme::kPn && level >= 1) {  // the base's refinement (integer pattern)
+          PnParams params;
+          params.factor = level;
+          triangles *= static_cast<double>(pn_triangles_per_input(params));
+        }
+        return triangles;
+      },
+      py::arg("model"), py::arg("scheme") = "uniform", py::arg("level") = -1, py::arg("segments") = -1,
+      py::arg("base_level") = -1,
+      "Triangles tessellate() makes at most with these parameters (esc: its full pattern; pn: the uniform base "
+      "times the integer pattern's triangles), computed without tessellating: the size guard's estimate");
   m.def(
       "tessellate_uniform",
       [](const Model& model, std::optional<int> level, std::optional<int> segments) {

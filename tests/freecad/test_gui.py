@@ -2,7 +2,7 @@
 into a throw-away user Mod folder). Activates the workbench, selects faces, runs every command with
 FreeCADGui.runCommand, checks what each did, and saves a screenshot (SAGITTA_SCREENSHOT) of the
 teapot coloured by certified per-triangle error beside the validation task panel, and one
-(SAGITTA_PART_SCREENSHOT) of a plate with holes meshed whole, coloured by face. Then issue 18's
+(SAGITTA_PART_SCREENSHOT) of a plate with holes meshed whole, coloured by certified error. Then issue 18's
 acceptance on seven shapes (check_primitives), one screenshot each into SAGITTA_PRIMITIVE_SCREENSHOTS."""
 import os
 import sys
@@ -295,6 +295,7 @@ def check_whole_part(watcher):
           and 0 < tess.ErrorLower <= tess.ErrorUpper < float("inf"),
           "whole part certified: [%g, %g]" % (tess.ErrorLower, tess.ErrorUpper))
     check(source.Shape.exportBrepToString() == brep, "the source shape is unchanged")
+    colours = part_colours_by_error(tess, panel)
     source.ViewObject.Visibility = False
     tess.ViewObject.DisplayMode = "Flat Lines"
     FreeCADGui.getMainWindow().statusBar().clearMessage()  # the earlier wrong selections' message
@@ -306,6 +307,76 @@ def check_whole_part(watcher):
     if shot:
         check(save_screenshot(view, shot), "screenshot saved to %s" % shot)
     FreeCADGui.Control.closeDialog()
+    part_colours_after_reopen(tess, colours)
+
+
+def part_colours_by_error(tess, panel):
+    """After Validate a whole part is coloured by certified error, as a patch model is: its colours
+    are those of the certificate's per-triangle bounds (no longer one per face), the view shows them,
+    and the panel has the legend. Returns the colours (rounded)."""
+    import SagittaCore
+    import SagittaGui
+    expected, top = SagittaCore.certified_error_colours(panel.report["triangle_error"].tolist())
+    got = [tuple(round(c, 2) for c in colour[:3]) for colour in tess.FaceColors]
+    check(len(got) == tess.Mesh.CountFacets and got == [tuple(round(c, 2) for c in e) for e in expected]
+          and top == panel.report["colour_scale_top"] > 0,
+          "whole part coloured by certified error (scale top %g)" % top)
+    check(tess.ViewObject.Coloring and len(panel.form.findChildren(SagittaGui.LegendWidget)) == 1,
+          "the part's colours shown, with the legend in the panel")
+    return got
+
+
+def part_colours_after_reopen(tess, colours):
+    """The whole part's error colours (`colours`) are stored and shown again after save + reopen."""
+    doc = tess.Document
+    path, name = os.path.join(os.environ["HOME"], "part-colours.FCStd"), tess.Name
+    doc.saveAs(path)
+    FreeCAD.closeDocument(doc.Name)
+    process_events(20)
+    doc = FreeCAD.openDocument(path)
+    process_events(20)
+    reopened = doc.getObject(name)
+    stored = [tuple(round(c, 2) for c in colour[:3]) for colour in reopened.FaceColors]
+    view = FreeCADGui.ActiveDocument.ActiveView
+    view.viewIsometric()
+    view.fitAll()
+    process_events(20)
+    shown = coloured_fraction(view, os.path.join(os.environ["HOME"], "part-colours.png"))
+    check(stored == colours and reopened.ViewObject.Coloring and shown > 0.05,
+          "the part's error colours are back after save + reopen (%.3f of the view coloured)" % shown)
+    FreeCAD.closeDocument(doc.Name)
+
+
+def check_memory_refusal(watcher, tess):
+    """Issue 18: a level beyond memory, chosen in the panel, is refused before anything is allocated:
+    a message saying what it would need and which Level fits, the panel still open, the feature as
+    it was (here Maximum memory 256 MiB, the teapot's tessellation at Level 9: 16 million triangles)."""
+    import resource
+    import SagittaCore
+    import SagittaGui
+    params = FreeCAD.ParamGet(SagittaCore.PARAM_PATH)
+    params.SetInt("MaxMemoryMiB", 256)
+    try:
+        FreeCADGui.Control.closeDialog()
+        before = (tess.Scheme, tess.Level, tess.Segments, tess.Mesh.CountFacets)
+        tess.ViewObject.doubleClicked()
+        panel = SagittaGui.active_panel
+        panel.scheme.setCurrentIndex(SagittaCore.SCHEMES.index("uniform"))
+        panel.segments.setValue(0)
+        panel.level.setValue(9)
+        seen, peak = len(watcher.texts), resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        check(panel.accept() is False, "a level beyond memory keeps the panel open")
+        process_events(20)
+        grown = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - peak) / 1024.0
+        texts = watcher.texts[seen:]
+        check(len(texts) == 1 and "Level 9 would need about" in texts[0] and "choose Level ≤ 6" in texts[0]
+              and "--" not in texts[0], "the memory refusal says what fits: %s" % texts)
+        check((tess.Scheme, tess.Level, tess.Segments, tess.Mesh.CountFacets) == before
+              and "Invalid" not in tess.State and grown < 200,
+              "after the refusal the feature is as it was, peak memory grown %.0f MB" % grown)
+        panel.reject()
+    finally:
+        params.RemInt("MaxMemoryMiB")
 
 
 def primitive_sources(doc):
@@ -589,6 +660,7 @@ def run():
           and panel.report["method"] == "reference", "Validate of FreeCAD's own mesh (MeshPart)")
 
     check_whole_part(watcher)
+    check_memory_refusal(watcher, tess)
     check_primitives(watcher, os.environ.get("SAGITTA_PRIMITIVE_SCREENSHOTS"))
 
     # Preferences page: what it saves is what new features start from.

@@ -326,7 +326,16 @@ class HeadlessTest(unittest.TestCase):
         self.assertEqual((obj.ErrorLower, obj.ErrorUpper), (cli["hausdorff"]["lower"], cli["hausdorff"]["upper"]))
         self.assertTrue(0 < obj.ErrorLower <= obj.ErrorUpper < math.inf)
         self.assertEqual([f["name"] for f in report["face_certificates"]], ["Face%d" % (k + 1) for k in range(faces)])
-        self.assertEqual(len(obj.FaceColors), obj.Mesh.CountFacets)  # coloured by face, not by error
+        # Coloured by certified error: the colours certified_error_colours gives the library's bounds.
+        errors = _sagitta.certify_part(_sagitta.mesh_part_brep(brep_before, "plate", level=2), 8)["triangle_error"]
+        self.assertEqual(len(errors), obj.Mesh.CountFacets)
+        expected, top = SagittaCore.certified_error_colours(errors.tolist())
+        self.assertEqual((report["colour_scale_top"], report["uncertified_triangles"]), (top, 0))
+        self.assertTrue(0 < top <= obj.ErrorUpper)
+        self.assertEqual(len(obj.FaceColors), obj.Mesh.CountFacets)
+        for got, want in zip(obj.FaceColors, expected):
+            self.assertEqual(tuple(round(c, 2) for c in got[:3]), tuple(round(c, 2) for c in want))
+        self.assertNotIn(SagittaCore.UNCERTIFIED_COLOUR, [tuple(c[:3]) for c in obj.FaceColors])
         html_path = os.path.join(WORK, "part.html")
         SagittaCore.write_html_report(report, obj.Label, html_path)
         with open(html_path) as f:
@@ -568,6 +577,123 @@ class HeadlessTest(unittest.TestCase):
         mesh_obj, report = SagittaCore.validate_freecad_mesh(self.doc, [(self.bezier, [])], max_depth=4)
         self.assertEqual(mesh_obj.TypeId, "Mesh::Feature")
         self.assertEqual(report["triangles"], mesh_obj.Mesh.CountFacets)
+
+    def test_uncertified_faces_have_their_own_colour(self):
+        """A whole part whose face is not certified (ESC on a sphere: the pole) is coloured magenta
+        there (no bound: not on the error scale), and the colours survive save + reopen."""
+        doc = FreeCAD.newDocument("UncertifiedColour")
+        sphere = doc.addObject("Part::Sphere", "Sphere")
+        doc.recompute()
+        obj = SagittaCore.make_tessellation(doc, [(sphere, [])], scheme="esc", level=3, threshold=0.01)
+        report = SagittaCore.validate_tessellation(obj, max_depth=4)
+        self.assertFalse(report["certified"])
+        self.assertEqual(report["uncertified_triangles"], obj.Mesh.CountFacets)  # its one face
+        self.assertEqual({tuple(c[:3]) for c in obj.FaceColors}, {SagittaCore.UNCERTIFIED_COLOUR})
+        path, name = os.path.join(WORK, "uncertified-colour.FCStd"), obj.Name
+        doc.saveAs(path)
+        FreeCAD.closeDocument(doc.Name)
+        doc = FreeCAD.openDocument(path)
+        self.assertEqual({tuple(c[:3]) for c in doc.getObject(name).FaceColors}, {SagittaCore.UNCERTIFIED_COLOUR})
+        FreeCAD.closeDocument(doc.Name)
+        colours, top = SagittaCore.certified_error_colours([0.5, math.inf, 1.0, 0.0])
+        self.assertEqual(top, 1.0)
+        self.assertEqual(colours, [SagittaCore.legend_colour(0.5), SagittaCore.UNCERTIFIED_COLOUR,
+                                   SagittaCore.legend_colour(1.0), SagittaCore.legend_colour(0.0)])
+
+    def test_level_beyond_memory_is_refused_before_allocating(self):
+        """Issue 18: a level beyond memory is refused before anything is allocated, with a message
+        that says how much it would need, how much there is and which Level fits; the document, or
+        the feature being edited, stays as it was. The teapot at Level 10 (67 million triangles)
+        with Maximum memory 3 GiB: refused in well under 5 s, the process's peak memory not grown by
+        more than 200 MB; with the automatic limit (a share of MemAvailable) Level 12 (1 TiB)."""
+        import _sagitta
+        import resource
+        path = os.path.join(SHARED, "teapot.bpt")
+        if not os.path.exists(path):
+            self.skipTest("shared data absent")
+        params = FreeCAD.ParamGet(SagittaCore.PARAM_PATH)
+        doc = FreeCAD.newDocument("TeapotMemory")
+        doc.UndoMode = 1
+        SagittaImport.insert(path, doc.Name)
+        teapot = doc.Objects[0]
+        names, undo_count = sorted(o.Name for o in doc.Objects), doc.UndoCount
+
+        def peak_kib():
+            return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        try:
+            params.SetInt("MaxMemoryMiB", 3072)
+            before, start = peak_kib(), time.perf_counter()
+            with self.assertRaises(SagittaCore.MemoryRefused) as refused:
+                SagittaCore.make_tessellation(doc, [(teapot, [])], scheme="uniform", level=10)
+            seconds, grown_mb = time.perf_counter() - start, (peak_kib() - before) / 1024.0
+            message = str(refused.exception)
+            print("\nMEMORY teapot Level 10 refused in %.3f s, peak RSS grown %.0f MB: %s"
+                  % (seconds, grown_mb, message), flush=True)
+            self.assertLess(seconds, 5.0)
+            self.assertLess(grown_mb, 200.0)
+            self.assertIn("Level 10 would need about 64.0 GiB of memory, more than the 3.0 GiB available "
+                          "(the Maximum memory preference); choose Level ≤ 7", message)
+            self.assertEqual(sorted(o.Name for o in doc.Objects), names)
+            self.assertEqual(doc.UndoCount, undo_count)
+
+            # An edit (panel or property editor) to a level beyond memory: the feature as it was.
+            obj = SagittaCore.make_tessellation(doc, [(teapot, [])], scheme="uniform", level=3)
+            facets, undo_count = obj.Mesh.CountFacets, doc.UndoCount
+            for values in ({"Level": 10}, {"Segments": 5000}, {"Scheme": "pn", "Level": 200, "BaseLevel": 3}):
+                with self.subTest(values=values):
+                    before = peak_kib()
+                    with self.assertRaises(SagittaCore.SagittaError) as refused:
+                        SagittaCore.edit_tessellation(obj, **values)
+                    self.assertLess((peak_kib() - before) / 1024.0, 200.0)
+                    key = "Segments" if "Segments" in values else "Level"
+                    self.assertRegex(str(refused.exception),
+                                     r"%s \d+ would need about .* choose %s ≤ \d+$" % (key, key))
+                    self.assertNotIn("--", str(refused.exception))
+                    self.assertEqual((obj.Scheme, obj.Level, obj.Segments, obj.Mesh.CountFacets),
+                                     ("uniform", 3, 0, facets))
+                    self.assertNotIn("Invalid", obj.State)
+            self.assertEqual(doc.UndoCount, undo_count)
+            # The suggestion fits: Segments = the number offered is accepted.
+            with self.assertRaises(SagittaCore.SagittaError) as refused:
+                SagittaCore.edit_tessellation(obj, Segments=5000)
+            offered = int(str(refused.exception).rsplit("≤ ", 1)[1])
+            self.assertLessEqual(_sagitta.estimated_triangles(SagittaCore.shape_model([(teapot, [])])[0], "uniform",
+                                                              segments=offered) * SagittaCore.BYTES_PER_TRIANGLE,
+                                 3072 * 2 ** 20)
+            self.assertGreater(_sagitta.estimated_triangles(SagittaCore.shape_model([(teapot, [])])[0], "uniform",
+                                                            segments=offered + 1) * SagittaCore.BYTES_PER_TRIANGLE,
+                               3072 * 2 ** 20)
+
+            # Validate is checked too: with 1 MiB the Level 3 feature's validation is refused, nothing stored.
+            params.SetInt("MaxMemoryMiB", 1)
+            with self.assertRaises(SagittaCore.MemoryRefused) as refused:
+                SagittaCore.validate_tessellation(obj)
+            self.assertTrue(str(refused.exception).startswith(
+                "Validate: Level 3 would need about 4 MiB of memory, more than the 1 MiB available"), str(refused.exception))
+            self.assertEqual((obj.Certification, obj.ErrorUpper, doc.UndoCount),
+                             ("not validated", math.inf, undo_count))
+
+            # The library's own refusal (its limit set by the check), in the workbench's words.
+            with self.assertRaises(SagittaCore.MemoryRefused) as refused:
+                SagittaCore.tessellate_model(_sagitta.read_model(path), {"scheme": "uniform", "level": 6})
+            self.assertIn("more than the 0.000977 GiB Sagitta may use", str(refused.exception))
+            self.assertNotIn("--", str(refused.exception))
+
+            # The automatic limit: a share of the memory available now.
+            params.SetInt("MaxMemoryMiB", 0)
+            limit, source = SagittaCore.memory_limit()
+            self.assertEqual(limit, SagittaCore.AVAILABLE_SHARE * SagittaCore.available_memory())
+            self.assertIn("of the memory available now", source)
+            before = peak_kib()
+            with self.assertRaises(SagittaCore.SagittaError) as refused:
+                SagittaCore.edit_tessellation(obj, Level=12)
+            self.assertIn("Level 12 would need about 1024.0 GiB", str(refused.exception))
+            self.assertLess((peak_kib() - before) / 1024.0, 200.0)
+            self.assertEqual((obj.Level, obj.Mesh.CountFacets), (3, facets))
+        finally:
+            params.RemInt("MaxMemoryMiB")
+            _sagitta.reset_budget()
+        FreeCAD.closeDocument(doc.Name)
 
     def test_fit_refuses_a_target_that_is_not_a_positive_number(self):
         obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=1)

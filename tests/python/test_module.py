@@ -114,6 +114,51 @@ class CliAgreementTest(unittest.TestCase):
             _sagitta.fit(self.model, "uniform", -1.0)
 
 
+    def test_memory_limit_refuses_before_allocating(self):
+        """set_max_memory: the teapot at level 10 (67 million triangles, ~6 GiB) is refused before
+        anything is allocated (quickly, the process's peak memory not grown), with a MemoryError
+        naming the work and the limit; estimated_triangles gives the size it was judged by; a level
+        that fits still runs; reset_budget lifts the limit."""
+        import resource
+        import time
+        path = os.path.join(os.environ.get("SHARED_DATA", ""), "teapot.bpt")
+        if not os.path.exists(path):
+            self.skipTest("shared data absent")
+        teapot = _sagitta.read_model(path)
+        self.assertEqual(_sagitta.estimated_triangles(teapot, "uniform", level=10), 2 * 1024 ** 2 * 32)
+        mesh, stats = _sagitta.tessellate(teapot, level=3)
+        self.assertEqual(_sagitta.estimated_triangles(teapot, "uniform", level=3),
+                         stats["triangles"] + stats["degenerate_triangles"])
+        self.assertEqual(_sagitta.estimated_triangles(teapot, "pn", level=3, base_level=2), 9 * 2 * 16 * 32)
+        self.assertGreaterEqual(_sagitta.estimated_triangles(teapot, "esc", level=3),
+                                _sagitta.tessellate(teapot, scheme="esc", level=3, threshold=0.01)[1]["triangles"])
+        try:
+            _sagitta.set_max_memory(2 ** 30)
+            self.assertEqual(_sagitta.max_memory(), 2 ** 30)
+            before, start = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, time.perf_counter()
+            for scheme, kwargs in (("uniform", {"level": 10}), ("pn", {"level": 64, "base_level": 4})):
+                with self.subTest(scheme=scheme):
+                    with self.assertRaises(_sagitta.MemoryLimitExceeded) as refused:
+                        _sagitta.tessellate(teapot, scheme=scheme, **kwargs)
+                    self.assertIsInstance(refused.exception, MemoryError)
+                    self.assertIn("more than --max-memory 1 GiB", str(refused.exception))
+            self.assertLess(time.perf_counter() - start, 5.0)
+            self.assertLess(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before, 50 * 1024)  # KiB
+            self.assertEqual(_sagitta.tessellate(teapot, level=3)[1]["triangles"], stats["triangles"])
+            # Validation estimates its own memory (512 bytes a triangle): the teapot at level 7 (a
+            # million triangles) is made under 256 MiB, its validation refused before it starts.
+            _sagitta.set_max_memory(256 * 2 ** 20)
+            big, _ = _sagitta.tessellate(teapot, level=7)
+            before, start = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, time.perf_counter()
+            with self.assertRaises(_sagitta.MemoryLimitExceeded) as refused:
+                _sagitta.validate(teapot, big)
+            self.assertIn("validating %d triangles would need about" % big.triangle_count, str(refused.exception))
+            self.assertLess(time.perf_counter() - start, 1.0)
+            self.assertLess(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before, 50 * 1024)  # KiB
+        finally:
+            _sagitta.reset_budget()
+        self.assertEqual(_sagitta.max_memory(), 0.0)
+
 
 if __name__ == "__main__":
     unittest.main()

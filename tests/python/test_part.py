@@ -69,6 +69,37 @@ class PartTest(unittest.TestCase):
         with self.assertRaises(_sagitta.InputError):
             _sagitta.certify_part(part, max_depth=11)
 
+    def test_memory_limit_refuses_a_part_before_meshing(self):
+        """With a memory limit (set_max_memory) a part whose estimate (every face's scheme, summed)
+        exceeds it is refused before any face is meshed, quickly and without growing the process;
+        the same part at a level that fits is meshed, and reset_budget lifts the limit."""
+        import resource
+        import time
+        path = os.path.join(SHARED, "cad", "step", "pr1ct.stp")
+        if not os.path.exists(path):
+            self.skipTest("shared data absent")
+        small = _sagitta.mesh_part(path, level=2)
+        try:
+            _sagitta.set_max_memory(256 * 2 ** 20)
+            before, start = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, time.perf_counter()
+            with self.assertRaises(_sagitta.MemoryLimitExceeded) as refused:
+                _sagitta.mesh_part(path, level=11)
+            self.assertLess(time.perf_counter() - start, 10.0)
+            self.assertLess(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before, 100 * 1024)  # KiB
+            self.assertIn("meshing the part", str(refused.exception))
+            self.assertIn("more than --max-memory 0.25 GiB", str(refused.exception))
+            self.assertIsInstance(refused.exception, MemoryError)
+            self.assertEqual(_sagitta.mesh_part(path, level=2).mesh.triangle_count, small.mesh.triangle_count)
+            _sagitta.set_max_memory(512.0 * small.mesh.triangle_count - 1)  # certify_part's estimate: just over
+            with self.assertRaises(_sagitta.MemoryLimitExceeded) as refused:
+                _sagitta.certify_part(small)
+            self.assertIn("certifying %d triangles" % small.mesh.triangle_count, str(refused.exception))
+            _sagitta.set_max_memory(512.0 * small.mesh.triangle_count)
+            self.assertTrue(_sagitta.certify_part(small)["certified"])
+        finally:
+            _sagitta.reset_budget()
+        self.assertEqual(_sagitta.max_memory(), 0.0)
+
     def test_shared_step_part(self):
         path = os.path.join(SHARED, "cad", "step", "pr1ct.stp")
         if not os.path.exists(path):

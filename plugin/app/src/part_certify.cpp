@@ -2,6 +2,8 @@
 #include "sagitta/app/json.hpp"
 #include "sagitta/app/part.hpp"
 #include "sagitta/app/common.hpp"
+#include "sagitta/app/validate.hpp"
+#include "sagitta/budget.hpp"
 #include "sagitta/grid_cut.hpp"
 
 #include <tbb/parallel_for.h>
@@ -566,6 +568,9 @@ void fold_faces(PartCertificate& cert) {
 PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& options) {
   const Stopwatch clock;
   if (!part.mesh.has_surface()) throw InputError(part.name + ": the part mesh has no (u, v) to certify");
+  budget::check_memory(validation_bytes(double(part.mesh.triangles.size())),
+                       part.name + ": certifying " + std::to_string(part.mesh.triangles.size()) + " triangles",
+                       "lower --level or raise --max-memory");
   PartCertificate cert;
   cert.triangle_upper.assign(part.mesh.triangles.size(), kInf);
   FaceTriangles face_triangles(part.faces.size());

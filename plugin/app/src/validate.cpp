@@ -2,11 +2,15 @@
 
 #include "sagitta/app/common.hpp"
 #include "sagitta/app/json.hpp"
+#include "sagitta/budget.hpp"
 
 namespace sagitta::app {
 
 Validation validate_mesh(const Model& model, const Topology& topology, const Tessellation& mesh,
                          const ValidationOptions& options) {
+  budget::check_memory(validation_bytes(double(mesh.triangles.size())),
+                       "validating " + std::to_string(mesh.triangles.size()) + " triangles",
+                       "lower --level or raise --max-memory");
   Validation v;
   const Stopwatch clock;
   CertifyOptions certify;

@@ -87,6 +87,8 @@ struct PartCertificate {
   double seconds = 0.0;
 };
 
+// Throws MemoryLimitExceeded before starting when validation_bytes (sagitta/app/validate.hpp) of the
+// part's triangles exceeds the memory limit.
 PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& options = {});
 
 // certified (all_certified), faces_certified, faces_not_certified [{face, reason}], faces [{face,

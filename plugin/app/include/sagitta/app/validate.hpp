@@ -26,8 +26,15 @@ struct Validation {
   double topology_seconds = 0.0;
 };
 
+// Bytes a validation needs beyond the mesh, for the memory guard (sagitta/budget.hpp): the
+// certificate's per-triangle bounds and per-patch lists, and the topology check's edge maps.
+// Generous: the teapot at level 7 measured about 380 bytes per triangle (Python's validate, its
+// arrays included), a whole part's certify_part about 250.
+inline double validation_bytes(double triangles) { return 512.0 * triangles; }
+
 // Certifies `mesh` against `model` (certify_distance when the mesh has (u, v), else certify_external
-// through a uniform reference of options.reference_segments) and checks its topology.
+// through a uniform reference of options.reference_segments) and checks its topology. Throws
+// MemoryLimitExceeded before starting when validation_bytes exceeds the memory limit.
 Validation validate_mesh(const Model& model, const Topology& topology, const Tessellation& mesh,
                          const ValidationOptions& options);
 
