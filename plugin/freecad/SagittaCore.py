@@ -10,6 +10,7 @@ import math
 import os
 import re
 import tempfile
+import threading
 import time
 
 import FreeCAD
@@ -25,6 +26,42 @@ PARAM_PATH = "User parameter:BaseApp/Preferences/Mod/Sagitta"
 
 class SagittaError(Exception):
     """A problem the user can act on (bad selection, unsupported face, invalid parameter)."""
+
+
+class Cancelled(SagittaError):
+    """The user cancelled long work: its result was discarded and the document was not changed."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Long C++ work: run through a runner the GUI installs (a worker thread, a progress dialog, Cancel)
+
+_long_runner = None
+
+
+def set_long_runner(runner):
+    """Installs runner(title, work) -> work()'s result for run_long (SagittaGui: a worker thread with a
+    progress dialog and Cancel); None: run here, synchronously (headless)."""
+    global _long_runner
+    _long_runner = runner
+
+
+def start_run():
+    """Clears what an earlier run left in the library's budget (a cancellation request, a time limit),
+    keeping the memory limit: called before each long run (a cancelled run leaves its flag set)."""
+    limit = _sagitta.max_memory()
+    _sagitta.reset_budget()
+    _sagitta.set_max_memory(limit)
+
+
+def run_long(title, work):
+    """Runs work(): C++ work that reads and writes no document object (the caller reads the document
+    before and changes it after, in its own thread). Through the installed runner when there is one
+    and this is the main thread, else here. Returns work()'s result or raises its exception; the
+    runner raises Cancelled when the user cancelled."""
+    if _long_runner is None or threading.current_thread() is not threading.main_thread():
+        start_run()
+        return work()
+    return _long_runner(title, work)
 
 
 # The library words its refusals for the command line; the feature's users edit properties.
@@ -167,7 +204,11 @@ def part_parameters(params):
 def mesh_part(links, name, params):
     """The whole-part mesh of the linked shapes (a _sagitta.PartMesh); library errors become
     SagittaError. A face that cannot be meshed is listed in the result's faces, never dropped."""
-    text = part_brep_text(links)
+    return mesh_part_text(part_brep_text(links), name, params)
+
+
+def mesh_part_text(text, name, params):
+    """mesh_part of BREP text (part_brep_text's): reads no document object, so it can run in a worker."""
     try:
         return _sagitta.mesh_part_brep(text, name, **part_parameters(params))
     except ValueError as error:
@@ -280,6 +321,7 @@ class TessellationFeature:
         With no such parameters, or when the source itself fails, the feature is Invalid. The refusal
         is kept in self.error for edit_tessellation."""
         self.error = None
+        start_run()  # a cancelled run leaves its flag set: this rebuild is a new run
         try:
             self.build(obj)
         except SagittaError as error:
@@ -524,8 +566,9 @@ def validate_tessellation(obj, max_depth=None):
         return validate_part(obj)
     depth = preferences()["max_depth"] if max_depth is None else max_depth
     model, _ = shape_model(obj.Source, obj.Label)
-    mesh, _ = tessellate_model(model, scheme_parameters(obj))
-    report = run_validation(model, mesh, depth)
+    params = scheme_parameters(obj)
+    report = run_long("Validating %s" % obj.Label,
+                      lambda: run_validation(model, tessellate_model(model, params)[0], depth))
     errors = report["triangle_error"]
     report["colour_scale_top"] = float(errors.max()) if len(errors) else 0.0
 
@@ -579,19 +622,23 @@ def validate_part(obj, max_depth=None):
     "face_certificates" ([{name, route, certified, lower, upper, reason}]), "seconds", "solids":
     [check_solids' dict plus "brep_closed", "brep_valid", "brep_volume" (-1: faces outside every solid)]}."""
     depth = preferences()["max_depth"] if max_depth is None else max_depth
-    part = mesh_part(obj.Source, obj.Label, scheme_parameters(obj))
-    start = time.perf_counter()
-    try:
-        checks = _sagitta.check_solids(part.mesh, part.triangle_solid, part.boundary_edges)
-    except ValueError as error:
-        raise SagittaError(str(error))
+    label, text, params = obj.Label, part_brep_text(obj.Source), scheme_parameters(obj)
+
+    def measure():  # C++ work only (run_long): the document is read before and written after
+        part = mesh_part_text(text, label, params)
+        start = time.perf_counter()
+        try:
+            checks = _sagitta.check_solids(part.mesh, part.triangle_solid, part.boundary_edges)
+        except ValueError as error:
+            raise SagittaError(str(error))
+        return part, checks, part_certificate(part, depth), start
+    part, checks, certificate, start = run_long("Validating %s" % label, measure)
     facts = {s["index"]: s for s in part.solids}
     for check in checks:
         solid = facts.get(check["solid"])
         check["brep_closed"] = bool(solid and solid["closed"])
         check["brep_valid"] = bool(solid and solid["valid"])
         check["brep_volume"] = solid["volume"] if solid else 0.0
-    certificate = part_certificate(part, depth)
     names = freecad_face_names(obj.Source)
     report = {"kind": "part", "label": obj.Label, "triangles": part.mesh.triangle_count,
               "vertices": part.mesh.vertex_count, "faces": len(part.faces), "faces_trimmed": part.faces_trimmed,
@@ -656,14 +703,35 @@ def validate_mesh_object(mesh_obj, links, max_depth=None):
     """Certifies any Mesh object (no (u, v): through a certified reference tessellation) against the
     exact shape of `links`. Changes nothing in the document."""
     depth = preferences()["max_depth"] if max_depth is None else max_depth
-    model, _ = shape_model(links, mesh_obj.Label)
+    model = whole_shape_model(links, mesh_obj.Label)
     points, facets = mesh_obj.Mesh.Topology
     if not facets:
         raise SagittaError("%s has no triangles" % mesh_obj.Label)
     placement = mesh_obj.Placement
     positions = [tuple(placement.multVec(p)) for p in points]
     mesh = _sagitta.mesh_from_arrays(positions, facets)
-    return run_validation(model, mesh, depth)
+    return run_long("Validating %s" % mesh_obj.Label, lambda: run_validation(model, mesh, depth))
+
+
+def whole_shape_model(links, name):
+    """The patch model of every face of `links`, for measuring a mesh that is not Sagitta's against the
+    whole part. Raises SagittaError naming each face that cannot be measured (FreeCAD's names: trimmed
+    faces, surfaces with no exact Bézier form) and why: a distance to the other faces alone would be a
+    number about part of the part."""
+    faces = [f.copy() for _, fs in source_faces(links) for _, f in fs]
+    try:
+        cad = _sagitta.read_brep_string(Part.makeCompound(faces).exportBrepToString(), name)
+    except ValueError as error:
+        raise SagittaError(str(error))
+    names = freecad_face_names(links)
+    missing = ["%s (%s)" % (face_note_name(f, names), f["reason"] or f["status"])
+               for f in cad["faces"] if f["status"] != "tessellated"]
+    if missing:
+        raise SagittaError(
+            "%s cannot be measured against the whole part: %d of %d faces have no exact patch model: %s. "
+            "Tessellate the part with Sagitta (meshed whole) and Validate that tessellation instead"
+            % (name, len(missing), len(cad["faces"]), "; ".join(missing)))
+    return cad["model"]
 
 
 def freecad_mesh_of(doc, links, linear_deflection=0.1, angular_deflection=0.5):
@@ -819,10 +887,14 @@ def fit_tessellation(obj, target_error):
                            "set Level or Segments and Validate" % obj.Label)
     check_target_error(target_error)
     model, _ = shape_model(obj.Source, obj.Label)
-    try:
-        result = _sagitta.fit(model, obj.Scheme, target_error)
-    except ValueError as error:
-        raise SagittaError(str(error))
+    scheme = obj.Scheme
+
+    def fit():  # C++ work only (run_long): the document is changed after it, by edit_tessellation
+        try:
+            return _sagitta.fit(model, scheme, target_error)
+        except ValueError as error:
+            raise SagittaError(str(error))
+    result = run_long("Fitting %s to %g" % (obj.Label, target_error), fit)
     if not result["met"]:
         # The fit's last parameters, not a best possible error: finer ones may do better.
         raise SagittaError("The %s scheme did not meet the target %g: the fit stopped at %s (%d triangles), "

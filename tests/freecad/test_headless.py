@@ -28,6 +28,9 @@ import SagittaImport  # noqa: E402
 CLI = os.environ["SAGITTA_CLI"]
 SHARED = os.environ.get("SHARED_DATA", "")
 WORK = tempfile.mkdtemp(prefix="sagitta-fc-")
+TEAPOT = os.path.join(SHARED, "teapot.bpt")
+# A fit that runs for minutes uncancelled (measured: see test_cancel_from_another_thread_stops_a_fit).
+LONG_FIT = ("uniform", 1e-4)
 
 
 def bezier_face():
@@ -568,6 +571,89 @@ class HeadlessTest(unittest.TestCase):
         mesh_obj, report = SagittaCore.validate_freecad_mesh(self.doc, [(self.bezier, [])], max_depth=4)
         self.assertEqual(mesh_obj.TypeId, "Mesh::Feature")
         self.assertEqual(report["triangles"], mesh_obj.Mesh.CountFacets)
+
+    def test_foreign_mesh_of_a_part_with_trimmed_faces_is_refused(self):
+        """Validate of a mesh that is not Sagitta's against a Part Cylinder (its caps are trimmed planes:
+        no exact patch model) is refused, naming the caps by FreeCAD's names, rather than measured
+        against the side alone; nothing is added. A Bézier face still validates."""
+        cylinder = self.doc.addObject("Part::Cylinder", "Cylinder")
+        self.doc.recompute()
+        names, undo_count = sorted(o.Name for o in self.doc.Objects), self.doc.UndoCount
+        with self.assertRaises(SagittaCore.SagittaError) as refused:
+            SagittaCore.validate_freecad_mesh(self.doc, [(cylinder, [])], max_depth=4)
+        message = str(refused.exception)
+        for name in ("Face2", "Face3"):
+            self.assertIn(name, message)
+        self.assertNotIn("Face1", message)
+        self.assertIn("trimmed", message)
+        self.assertEqual(sorted(o.Name for o in self.doc.Objects), names)
+        self.assertEqual(self.doc.UndoCount, undo_count)
+        mesh_obj = SagittaCore.freecad_mesh_of(self.doc, [(cylinder, [])])
+        with self.assertRaises(SagittaCore.SagittaError) as refused:
+            SagittaCore.validate_mesh_object(mesh_obj, [(cylinder, [])], max_depth=4)
+        self.assertIn("Face2", str(refused.exception))
+        report = SagittaCore.validate_mesh_object(mesh_obj, [(cylinder, ["Face1"])], max_depth=4)
+        self.assertEqual(report["method"], "reference")  # the side alone, when that is what is selected
+        self.doc.removeObject(mesh_obj.Name)
+        self.doc.removeObject(cylinder.Name)
+        mesh_obj, report = SagittaCore.validate_freecad_mesh(self.doc, [(self.bezier, [])], max_depth=4)
+        self.assertTrue(report["hausdorff"]["upper_certified"])
+        self.doc.removeObject(mesh_obj.Name)
+
+    def test_cancel_from_another_thread_stops_a_fit(self):
+        """_sagitta.request_cancel from another thread stops a long fit (the teapot, uniform to 1e-4: 31 s
+        uncancelled) with _sagitta.Interrupted within about a second; through SagittaCore the
+        feature is unchanged and no Undo step is left; the next run is not stopped by the old request."""
+        import threading
+        import _sagitta
+        if not os.path.exists(TEAPOT):
+            self.skipTest("shared data absent")
+        model = _sagitta.read_model(TEAPOT)
+
+        def cancel_after(seconds, when):
+            def cancel():
+                time.sleep(seconds)
+                when.append(time.perf_counter())
+                _sagitta.request_cancel()
+            thread = threading.Thread(target=cancel)
+            thread.start()
+            return thread
+        when = []
+        canceller = cancel_after(0.5, when)
+        SagittaCore.start_run()
+        with self.assertRaises(_sagitta.Interrupted):
+            _sagitta.fit(model, LONG_FIT[0], LONG_FIT[1])
+        latency = time.perf_counter() - when[0]
+        canceller.join()
+        print("fit cancelled %.3f s after request_cancel" % latency, flush=True)
+        self.assertLess(latency, 1.5)
+        self.assertTrue(_sagitta.cancel_requested())
+
+        # Through the workbench (headless: synchronous): the feature as it was.
+        obj = SagittaCore.make_tessellation(self.doc, [(self.teapot(), [])], scheme=LONG_FIT[0], level=2)
+        before, undo_count = SagittaCore.parameter_values(obj), self.doc.UndoCount
+        triangles, target = obj.Triangles, obj.TargetError
+        when = []
+        canceller = cancel_after(0.5, when)
+        with self.assertRaises(_sagitta.Interrupted):
+            SagittaCore.fit_tessellation(obj, LONG_FIT[1])
+        latency = time.perf_counter() - when[0]
+        canceller.join()
+        self.assertLess(latency, 1.5)
+        self.assertEqual((SagittaCore.parameter_values(obj), obj.Triangles, obj.TargetError, self.doc.UndoCount),
+                         (before, triangles, target, undo_count))
+        self.assertNotIn("Invalid", obj.State)
+        result = SagittaCore.fit_tessellation(obj, 0.05)  # a new run: the old request is cleared
+        self.assertTrue(result["met"])
+
+    def teapot(self):
+        """The teapot's 32 Bézier faces as one Part object (the importer's)."""
+        existing = [o for o in self.doc.Objects if o.Label.startswith("teapot")]
+        if existing:
+            return existing[0]
+        obj = SagittaImport.import_file(TEAPOT, self.doc)
+        self.doc.recompute()
+        return obj
 
     def test_fit_refuses_a_target_that_is_not_a_positive_number(self):
         obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=1)
