@@ -12,6 +12,7 @@ import re
 import tempfile
 import threading
 import time
+import types
 
 import FreeCAD
 import Mesh
@@ -346,8 +347,9 @@ class TessellationFeature:
         """Rebuilds the mesh from the source; clears validation results (they belong to the old mesh).
         A part source (solids or shells) is meshed whole (mesh_part_brep): one mesh segment and one
         TriangleFace entry per B-rep face; other sources go through the patch model."""
+        prepared = self.take_prepared(obj)
         if is_part_source(obj.Source):
-            part = mesh_part(obj.Source, obj.Label, scheme_parameters(obj))
+            part = prepared if prepared is not None else mesh_part(obj.Source, obj.Label, scheme_parameters(obj))
             obj.Mesh = to_freecad_mesh(part.mesh, part.triangle_face)
             obj.Patches = part.model.patch_count
             obj.Triangles = part.mesh.triangle_count
@@ -361,7 +363,7 @@ class TessellationFeature:
             obj.FaceColors = face_colours(obj.TriangleFace)
         else:
             model, notes = shape_model(obj.Source, obj.Label)
-            mesh, stats = tessellate_model(model, scheme_parameters(obj))
+            mesh, stats = prepared if prepared is not None else tessellate_model(model, scheme_parameters(obj))
             obj.Mesh = to_freecad_mesh(mesh)
             obj.Patches = stats["patches"]
             obj.Triangles = stats["triangles"]
@@ -378,11 +380,67 @@ class TessellationFeature:
         obj.TopologyVerdict = ""
         obj.Certification = NOT_VALIDATED
 
+    def take_prepared(self, obj):
+        """The mesh prepare_mesh computed for exactly this source, label and these parameters (a
+        PartMesh, or tessellate_model's (mesh, stats)), once: it is dropped either way; else None."""
+        prepared, self.prepared = getattr(self, "prepared", None), None
+        if prepared is None:
+            return None
+        try:
+            key = mesh_key(obj, scheme_parameters(obj))
+        except SagittaError:
+            return None
+        return prepared[1] if prepared[0] == key else None
+
     def __getstate__(self):
         return None
 
     def __setstate__(self, state):
         return None
+
+
+def mesh_key(obj, params):
+    """What a feature's mesh depends on: its label (messages), its source's BREP text, the parameters."""
+    return obj.Label, part_brep_text(obj.Source), sorted(params.items())
+
+
+def prepare_mesh(obj, values):
+    """Computes, through run_long (the GUI: a worker thread, a progress dialog, Cancel), the mesh the
+    feature's recompute with `values` (PARAMETERS) will need, and leaves it for that one recompute
+    (TessellationFeature.take_prepared). Changes no property. A refusal is left to the recompute,
+    which words it in property names; Cancelled (and any other failure) propagates, nothing kept."""
+    obj.Proxy.prepared = None
+    settings = types.SimpleNamespace(**dict(parameter_values(obj), **{k: v for k, v in values.items() if k in PARAMETERS}))
+    label = obj.Label
+    try:
+        params = scheme_parameters(settings)
+        key = mesh_key(obj, params)
+        if is_part_source(obj.Source):
+            text = part_brep_text(obj.Source)
+            result = run_long("Tessellating %s" % label, lambda: mesh_part_text(text, label, params))
+        else:
+            model, _ = shape_model(obj.Source, label)
+            result = run_long("Tessellating %s" % label, lambda: tessellate_model(model, params))
+    except Cancelled:
+        raise
+    except SagittaError:
+        return
+    obj.Proxy.prepared = (key, result)
+
+
+def apply_with_progress(obj, values, edit=True):
+    """Tessellate's task panel: the long meshing first (prepare_mesh: cancellable, the document
+    untouched), then edit_tessellation (edit=True: one Undo step) or apply_parameters (the creation
+    panel, inside the creation's transaction), whose recompute takes the prepared mesh. Nothing
+    prepared is left behind."""
+    try:
+        prepare_mesh(obj, values)
+        if edit:
+            edit_tessellation(obj, **values)
+        else:
+            apply_parameters(obj, values)
+    finally:
+        obj.Proxy.prepared = None
 
 
 # The parameters a user edits; the fit sets them too.

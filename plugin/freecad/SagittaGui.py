@@ -86,8 +86,9 @@ def run_with_progress(title, work):
     finally:
         active_progress = None
         dialog.canceled.disconnect(cancel)
+        dialog.reset()  # stops its show timer: a dialog of quick work must never show later
         dialog.hide()
-        dialog.deleteLater()
+        dialog.setParent(None)  # owned by Python now: deleted on return (no event loop needed)
         SagittaCore.start_run()  # the flag would stop the next synchronous work (a recompute)
     if cancelled:
         raise SagittaCore.Cancelled("%s: cancelled" % title)
@@ -238,11 +239,8 @@ class TessellatePanel:
     def accept(self):
         values = {"Scheme": self.scheme.currentText(), "Level": self.level.value(), "Segments": self.segments.value(),
                   "BaseLevel": self.base_level.value(), "Threshold": self.threshold.value()}
-        try:
-            if self.creating:
-                SagittaCore.apply_parameters(self.obj, values)
-            else:
-                SagittaCore.edit_tessellation(self.obj, **values)
+        try:  # the meshing in a worker thread with a progress dialog and Cancel, then the recompute
+            SagittaCore.apply_with_progress(self.obj, values, edit=not self.creating)
         except Exception as error:
             self.stats.setText(self.stats_text())
             report_error("Tessellate", error)

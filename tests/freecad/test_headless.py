@@ -646,6 +646,44 @@ class HeadlessTest(unittest.TestCase):
         result = SagittaCore.fit_tessellation(obj, 0.05)  # a new run: the old request is cleared
         self.assertTrue(result["met"])
 
+    def test_tessellate_panel_meshes_through_run_long(self):
+        """Tessellate's panel (apply_with_progress): the meshing runs once, through the long-work runner
+        (the GUI's worker thread), and the recompute takes its mesh (the same a plain recompute gives);
+        nothing is kept afterwards. Cancelled there: the feature and the Undo stack as they were."""
+        obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=2)
+        titles, meshings = [], []
+        original_runner, original_tessellate = SagittaCore._long_runner, SagittaCore.tessellate_model
+
+        def counting(model, params):
+            meshings.append(params)
+            return original_tessellate(model, params)
+        SagittaCore.tessellate_model = counting
+        SagittaCore.set_long_runner(lambda title, work: titles.append(title) or work())
+        try:
+            SagittaCore.apply_with_progress(obj, {"Level": 4})
+        finally:
+            SagittaCore.set_long_runner(original_runner)
+            SagittaCore.tessellate_model = original_tessellate
+        self.assertEqual((titles, len(meshings)), (["Tessellating " + obj.Label], 1))
+        self.assertEqual((obj.Level, obj.Triangles + obj.DegenerateTriangles), (4, 2 * 16 * 16))
+        self.assertIsNone(obj.Proxy.prepared)
+        topology = obj.Mesh.Topology
+        obj.touch()
+        self.doc.recompute()
+        self.assertEqual(obj.Mesh.Topology, topology)
+
+        def cancelled(title, work):
+            raise SagittaCore.Cancelled(title + ": cancelled")
+        undo_count = self.doc.UndoCount
+        SagittaCore.set_long_runner(cancelled)
+        try:
+            with self.assertRaises(SagittaCore.Cancelled):
+                SagittaCore.apply_with_progress(obj, {"Level": 5})
+        finally:
+            SagittaCore.set_long_runner(original_runner)
+        self.assertEqual((obj.Level, obj.Mesh.Topology, self.doc.UndoCount), (4, topology, undo_count))
+        self.assertIsNone(obj.Proxy.prepared)
+
     def teapot(self):
         """The teapot's 32 Bézier faces as one Part object (the importer's)."""
         existing = [o for o in self.doc.Objects if o.Label.startswith("teapot")]
