@@ -254,6 +254,54 @@ def colours_after_reopen(watcher, ctx):
     check(reopened > 0.5 * coloured, "the error colours are back after save + reopen (%.3f)" % reopened)
 
 
+def press_cancel_after(ms):
+    """Clicks the Cancel button of the progress dialog showing `ms` from now; the returned dict gets
+    "visible" (a dialog was showing) and "cancel" (when it was clicked, perf_counter)."""
+    import SagittaGui
+    seen = {}
+
+    def press():
+        dialog = SagittaGui.active_progress
+        seen["visible"] = dialog is not None and dialog.isVisible()
+        button = dialog.findChild(QtGui.QPushButton) if dialog is not None else None
+        if button is not None:
+            seen["cancel"] = time.perf_counter()
+            button.click()
+    QtCore.QTimer.singleShot(ms, press)
+    return seen
+
+
+def check_validate_cancel(watcher, doc, teapot):
+    """Validate of the teapot at uniform level 6 (262k triangles: about 4 s of certification) through
+    the command, cancelled 0.7 s after the start: the command returns within 2 s of the Cancel, no
+    results stored (the feature's validation properties and colours, the Undo stack), no panel, no
+    dialog, one report-view line."""
+    import SagittaCore
+    import SagittaGui
+    faces = ["Face%d" % (k + 1) for k in range(32)]
+    big = SagittaCore.make_tessellation(doc, [(teapot, faces)], scheme="uniform", level=6)
+    SagittaGui.attach_view_provider(big)
+    FreeCADGui.Control.closeDialog()
+    keys = ("ErrorLower", "ErrorUpper", "TopologyVerdict", "Certification", "FaceColors", "Triangles")
+    values, undo_count, messages = {k: getattr(big, k) for k in keys}, doc.UndoCount, len(watcher.texts)
+    before = report_view_text()
+    seen = press_cancel_after(700)
+    start = time.perf_counter()
+    run_command("Sagitta_Validate", big)
+    returned = time.perf_counter()
+    cancel = seen.get("cancel")
+    check(seen.get("visible") and cancel is not None and returned - cancel < 2.0,
+          "Validate cancelled %.2f s after the start returned %.2f s after Cancel"
+          % ((cancel or start) - start, returned - (cancel or start)))
+    added = report_view_text()[len(before):].strip().splitlines()
+    check({k: getattr(big, k) for k in keys} == values and doc.UndoCount == undo_count
+          and not isinstance(SagittaGui.active_panel, SagittaGui.ValidatePanel) and len(watcher.texts) == messages
+          and any("Validate: cancelled" in line for line in added),
+          "a cancelled Validate stores nothing (UndoCount %d -> %d, %r)" % (undo_count, doc.UndoCount, added))
+    doc.removeObject(big.Name)
+    process_events()
+
+
 def check_fit_cancel(watcher, doc, tess):
     """Issue 18's acceptance: a long fit (the teapot's 32 faces, uniform to 1e-4: about 30 s
     uncancelled) started through the Fit panel; the progress dialog's Cancel pressed within 1 s (a
@@ -269,19 +317,11 @@ def check_fit_cancel(watcher, doc, tess):
     run_command("Sagitta_Fit", tess)
     fit = SagittaGui.active_panel
     fit.target.setText("0.0001")
-    ticks, seen = [], {}
+    ticks = []
     ticker = QtCore.QTimer()
     ticker.timeout.connect(lambda: ticks.append(time.perf_counter()))
     ticker.start(50)
-
-    def press_cancel():
-        dialog = SagittaGui.active_progress
-        seen["visible"] = dialog is not None and dialog.isVisible()
-        button = dialog.findChild(QtGui.QPushButton) if dialog is not None else None
-        if button is not None:
-            seen["cancel"] = time.perf_counter()
-            button.click()
-    QtCore.QTimer.singleShot(700, press_cancel)
+    seen = press_cancel_after(700)
     start = time.perf_counter()
     accepted = fit.accept()
     returned = time.perf_counter()
@@ -628,6 +668,7 @@ def run():
     check(fit.accept() is True, "Fit runs")
     check(tess.TargetError == 0.02 and tess.Segments > 0, "Fit to 0.02 sets the segments (%d)" % tess.Segments)
     check_fit_cancel(watcher, doc, tess)
+    check_validate_cancel(watcher, doc, teapot)
 
     FreeCADGui.Selection.clearSelection()
     FreeCADGui.Selection.addSelection(tess)
