@@ -601,8 +601,9 @@ class HeadlessTest(unittest.TestCase):
         self.doc.removeObject(mesh_obj.Name)
 
     def test_cancel_from_another_thread_stops_a_fit(self):
-        """_sagitta.request_cancel from another thread stops a long fit (the teapot, uniform to 1e-4: 31 s
-        uncancelled) with _sagitta.Interrupted within about a second; through SagittaCore the
+        """_sagitta.request_cancel from another thread stops a long fit (the teapot, uniform to 1e-4: 15-30 s
+        uncancelled), early or in its validations (3 s in: the validator's first pass kept it 5-11 s
+        before it checked the budget), with _sagitta.Interrupted within about a second; through SagittaCore the
         feature is unchanged and no Undo step is left; the next run is not stopped by the old request."""
         import threading
         import _sagitta
@@ -618,16 +619,17 @@ class HeadlessTest(unittest.TestCase):
             thread = threading.Thread(target=cancel)
             thread.start()
             return thread
-        when = []
-        canceller = cancel_after(0.5, when)
-        SagittaCore.start_run()
-        with self.assertRaises(_sagitta.Interrupted):
-            _sagitta.fit(model, LONG_FIT[0], LONG_FIT[1])
-        latency = time.perf_counter() - when[0]
-        canceller.join()
-        print("fit cancelled %.3f s after request_cancel" % latency, flush=True)
-        self.assertLess(latency, 1.5)
-        self.assertTrue(_sagitta.cancel_requested())
+        for delay in (0.5, 3.0):
+            when = []
+            canceller = cancel_after(delay, when)
+            SagittaCore.start_run()
+            with self.assertRaises(_sagitta.Interrupted):
+                _sagitta.fit(model, LONG_FIT[0], LONG_FIT[1])
+            latency = time.perf_counter() - when[0]
+            canceller.join()
+            print("fit cancelled %.3f s after request_cancel (%.1f s in)" % (latency, delay), flush=True)
+            self.assertLess(latency, 1.5)
+            self.assertTrue(_sagitta.cancel_requested())
 
         # Through the workbench (headless: synchronous): the feature as it was.
         obj = SagittaCore.make_tessellation(self.doc, [(self.teapot(), [])], scheme=LONG_FIT[0], level=2)
@@ -683,6 +685,38 @@ class HeadlessTest(unittest.TestCase):
             SagittaCore.set_long_runner(original_runner)
         self.assertEqual((obj.Level, obj.Mesh.Topology, self.doc.UndoCount), (4, topology, undo_count))
         self.assertIsNone(obj.Proxy.prepared)
+
+    def test_cancelled_validations_change_nothing(self):
+        """Validate cancelled in its long work (a runner that raises Cancelled, as the GUI's does on
+        Cancel): of a patch tessellation, of a whole part, of FreeCAD's mesh of a Part object: the
+        document as it was (objects, the features' validation properties, the Undo stack)."""
+        box = self.doc.addObject("Part::Box", "CancelBox")
+        self.doc.recompute()
+        patches = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=2)
+        part = SagittaCore.make_tessellation(self.doc, [(box, [])], scheme="uniform", level=1)
+        self.assertTrue(part.WholePart)
+        keys = ("ErrorLower", "ErrorUpper", "TopologyVerdict", "Certification", "FaceColors")
+
+        def state():
+            return (sorted(o.Name for o in self.doc.Objects), self.doc.UndoCount,
+                    [[getattr(o, k) for k in keys] for o in (patches, part)])
+
+        def cancelled(title, work):
+            raise SagittaCore.Cancelled(title + ": cancelled")
+        before = state()
+        original = SagittaCore._long_runner
+        SagittaCore.set_long_runner(cancelled)
+        try:
+            for validate in (lambda: SagittaCore.validate_tessellation(patches, max_depth=4),
+                             lambda: SagittaCore.validate_tessellation(part, max_depth=4),
+                             lambda: SagittaCore.validate_freecad_mesh(self.doc, [(self.bezier, [])], max_depth=4)):
+                with self.assertRaises(SagittaCore.Cancelled):
+                    validate()
+                self.assertEqual(state(), before)
+        finally:
+            SagittaCore.set_long_runner(original)
+        for obj in (patches, part, box):
+            self.doc.removeObject(obj.Name)
 
     def teapot(self):
         """The teapot's 32 Bézier faces as one Part object (the importer's)."""
