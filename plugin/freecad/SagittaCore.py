@@ -785,10 +785,11 @@ def whole_shape_model(links, name):
     missing = ["%s (%s)" % (face_note_name(f, names), f["reason"] or f["status"])
                for f in cad["faces"] if f["status"] != "tessellated"]
     if missing:
+        parts = ", ".join(obj.Label for obj, _ in links)
         raise SagittaError(
-            "%s cannot be measured against the whole part: %d of %d faces have no exact patch model: %s. "
-            "Tessellate the part with Sagitta (meshed whole) and Validate that tessellation instead"
-            % (name, len(missing), len(cad["faces"]), "; ".join(missing)))
+            "%s cannot be measured against the whole of %s: %d of %d faces have no exact patch model: %s. "
+            "Tessellate %s with Sagitta (meshed whole) and Validate that tessellation instead"
+            % (name, parts, len(missing), len(cad["faces"]), "; ".join(missing), parts))
     return cad["model"]
 
 

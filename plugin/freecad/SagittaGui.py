@@ -48,6 +48,8 @@ def run_with_progress(title, work):
     or raises its exception, here; once cancelled, raises SagittaCore.Cancelled when the worker has
     stopped, whatever it returned, so the caller changes nothing."""
     global active_progress
+    if active_progress is not None:  # one run at a time: a second would clear the first one's Cancel
+        raise SagittaCore.SagittaError("Another Sagitta computation is running; wait for it or cancel it")
     SagittaCore.start_run()
     outcome = {}
 
@@ -78,9 +80,9 @@ def run_with_progress(title, work):
         while thread.is_alive():
             if not dialog.isVisible() and not cancelled and time.perf_counter() - start >= PROGRESS_AFTER:
                 dialog.show()
-            # Until the modal dialog shows, user input waits (no command may start meanwhile).
-            flags = QtCore.QEventLoop.AllEvents if dialog.isVisible() or cancelled \
-                else QtCore.QEventLoop.ExcludeUserInputEvents
+            # While the modal dialog is not showing (the first 0.3 s, after Cancel) user input waits:
+            # no command may start meanwhile.
+            flags = QtCore.QEventLoop.AllEvents if dialog.isVisible() else QtCore.QEventLoop.ExcludeUserInputEvents
             QtGui.QApplication.processEvents(flags, 50)
             thread.join(0.02)
     finally:
