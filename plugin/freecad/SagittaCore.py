@@ -10,7 +10,9 @@ import math
 import os
 import re
 import tempfile
+import threading
 import time
+import types
 
 import FreeCAD
 import Mesh
@@ -25,6 +27,42 @@ PARAM_PATH = "User parameter:BaseApp/Preferences/Mod/Sagitta"
 
 class SagittaError(Exception):
     """A problem the user can act on (bad selection, unsupported face, invalid parameter)."""
+
+
+class Cancelled(SagittaError):
+    """The user cancelled long work: its result was discarded and the document was not changed."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Long C++ work: run through a runner the GUI installs (a worker thread, a progress dialog, Cancel)
+
+_long_runner = None
+
+
+def set_long_runner(runner):
+    """Installs runner(title, work) -> work()'s result for run_long (SagittaGui: a worker thread with a
+    progress dialog and Cancel); None: run here, synchronously (headless)."""
+    global _long_runner
+    _long_runner = runner
+
+
+def start_run():
+    """Clears what an earlier run left in the library's budget (a cancellation request, a time limit),
+    keeping the memory limit: called before each long run (a cancelled run leaves its flag set)."""
+    limit = _sagitta.max_memory()
+    _sagitta.reset_budget()
+    _sagitta.set_max_memory(limit)
+
+
+def run_long(title, work):
+    """Runs work(): C++ work that reads and writes no document object (the caller reads the document
+    before and changes it after, in its own thread). Through the installed runner when there is one
+    and this is the main thread, else here. Returns work()'s result or raises its exception; the
+    runner raises Cancelled when the user cancelled."""
+    if _long_runner is None or threading.current_thread() is not threading.main_thread():
+        start_run()
+        return work()
+    return _long_runner(title, work)
 
 
 # The library words its refusals for the command line; the feature's users edit properties.
@@ -168,7 +206,11 @@ def part_parameters(params):
 def mesh_part(links, name, params):
     """The whole-part mesh of the linked shapes (a _sagitta.PartMesh); library errors become
     SagittaError. A face that cannot be meshed is listed in the result's faces, never dropped."""
-    text = part_brep_text(links)
+    return mesh_part_text(part_brep_text(links), name, params)
+
+
+def mesh_part_text(text, name, params):
+    """mesh_part of BREP text (part_brep_text's): reads no document object, so it can run in a worker."""
     try:
         return _sagitta.mesh_part_brep(text, name, **part_parameters(params))
     except (ValueError, MemoryError) as error:
@@ -423,6 +465,7 @@ class TessellationFeature:
         With no such parameters, or when the source itself fails, the feature is Invalid. The refusal
         is kept in self.error for edit_tessellation."""
         self.error = None
+        start_run()  # a cancelled run leaves its flag set: this rebuild is a new run
         try:
             self.build(obj)
         except SagittaError as error:
@@ -447,9 +490,11 @@ class TessellationFeature:
         """Rebuilds the mesh from the source; clears validation results (they belong to the old mesh).
         A part source (solids or shells) is meshed whole (mesh_part_brep): one mesh segment and one
         TriangleFace entry per B-rep face; other sources go through the patch model."""
-        check_memory(obj.Source, scheme_parameters(obj))
+        prepared = self.take_prepared(obj)
+        if prepared is None:
+            check_memory(obj.Source, scheme_parameters(obj))
         if is_part_source(obj.Source):
-            part = mesh_part(obj.Source, obj.Label, scheme_parameters(obj))
+            part = prepared if prepared is not None else mesh_part(obj.Source, obj.Label, scheme_parameters(obj))
             obj.Mesh = to_freecad_mesh(part.mesh, part.triangle_face)
             obj.Patches = part.model.patch_count
             obj.Triangles = part.mesh.triangle_count
@@ -463,7 +508,7 @@ class TessellationFeature:
             obj.FaceColors = face_colours(obj.TriangleFace)
         else:
             model, notes = shape_model(obj.Source, obj.Label)
-            mesh, stats = tessellate_model(model, scheme_parameters(obj))
+            mesh, stats = prepared if prepared is not None else tessellate_model(model, scheme_parameters(obj))
             obj.Mesh = to_freecad_mesh(mesh)
             obj.Patches = stats["patches"]
             obj.Triangles = stats["triangles"]
@@ -480,11 +525,68 @@ class TessellationFeature:
         obj.TopologyVerdict = ""
         obj.Certification = NOT_VALIDATED
 
+    def take_prepared(self, obj):
+        """The mesh prepare_mesh computed for exactly this source, label and these parameters (a
+        PartMesh, or tessellate_model's (mesh, stats)), once: it is dropped either way; else None."""
+        prepared, self.prepared = getattr(self, "prepared", None), None
+        if prepared is None:
+            return None
+        try:
+            key = mesh_key(obj, scheme_parameters(obj))
+        except SagittaError:
+            return None
+        return prepared[1] if prepared[0] == key else None
+
     def __getstate__(self):
         return None
 
     def __setstate__(self, state):
         return None
+
+
+def mesh_key(obj, params):
+    """What a feature's mesh depends on: its label (messages), its source's BREP text, the parameters."""
+    return obj.Label, part_brep_text(obj.Source), sorted(params.items())
+
+
+def prepare_mesh(obj, values):
+    """Computes, through run_long (the GUI: a worker thread, a progress dialog, Cancel), the mesh the
+    feature's recompute with `values` (PARAMETERS) will need, and leaves it for that one recompute
+    (TessellationFeature.take_prepared). Changes no property. A refusal is left to the recompute,
+    which words it in property names; Cancelled (and any other failure) propagates, nothing kept."""
+    obj.Proxy.prepared = None
+    settings = types.SimpleNamespace(**dict(parameter_values(obj), **{k: v for k, v in values.items() if k in PARAMETERS}))
+    label = obj.Label
+    try:
+        params = scheme_parameters(settings)
+        key = mesh_key(obj, params)
+        check_memory(obj.Source, params)  # a refusal: before anything is allocated, worded by the recompute
+        if is_part_source(obj.Source):
+            text = part_brep_text(obj.Source)
+            result = run_long("Tessellating %s" % label, lambda: mesh_part_text(text, label, params))
+        else:
+            model, _ = shape_model(obj.Source, label)
+            result = run_long("Tessellating %s" % label, lambda: tessellate_model(model, params))
+    except Cancelled:
+        raise
+    except SagittaError:
+        return
+    obj.Proxy.prepared = (key, result)
+
+
+def apply_with_progress(obj, values, edit=True):
+    """Tessellate's task panel: the long meshing first (prepare_mesh: cancellable, the document
+    untouched), then edit_tessellation (edit=True: one Undo step) or apply_parameters (the creation
+    panel, inside the creation's transaction), whose recompute takes the prepared mesh. Nothing
+    prepared is left behind."""
+    try:
+        prepare_mesh(obj, values)
+        if edit:
+            edit_tessellation(obj, **values)
+        else:
+            apply_parameters(obj, values)
+    finally:
+        obj.Proxy.prepared = None
 
 
 # The parameters a user edits; the fit sets them too.
@@ -685,8 +787,9 @@ def validate_tessellation(obj, max_depth=None):
         return validate_part(obj, max_depth)
     depth = preferences()["max_depth"] if max_depth is None else max_depth
     model, _ = shape_model(obj.Source, obj.Label)
-    mesh, _ = tessellate_model(model, scheme_parameters(obj))
-    report = run_validation(model, mesh, depth)
+    params = scheme_parameters(obj)
+    report = run_long("Validating %s" % obj.Label,
+                      lambda: run_validation(model, tessellate_model(model, params)[0], depth))
     errors = report["triangle_error"]
     report["colour_scale_top"] = float(errors.max()) if len(errors) else 0.0
 
@@ -743,19 +846,23 @@ def validate_part(obj, max_depth=None):
     [check_solids' dict plus "brep_closed", "brep_valid", "brep_volume" (-1: faces outside every solid)],
     "triangle_error" (per triangle, inf where not certified), "colour_scale_top", "uncertified_triangles"}."""
     depth = preferences()["max_depth"] if max_depth is None else max_depth
-    part = mesh_part(obj.Source, obj.Label, scheme_parameters(obj))
-    start = time.perf_counter()
-    try:
-        checks = _sagitta.check_solids(part.mesh, part.triangle_solid, part.boundary_edges)
-    except ValueError as error:
-        raise SagittaError(str(error))
+    label, text, params = obj.Label, part_brep_text(obj.Source), scheme_parameters(obj)
+
+    def measure():  # C++ work only (run_long): the document is read before and written after
+        part = mesh_part_text(text, label, params)
+        start = time.perf_counter()
+        try:
+            checks = _sagitta.check_solids(part.mesh, part.triangle_solid, part.boundary_edges)
+        except ValueError as error:
+            raise SagittaError(str(error))
+        return part, checks, part_certificate(part, depth), start
+    part, checks, certificate, start = run_long("Validating %s" % label, measure)
     facts = {s["index"]: s for s in part.solids}
     for check in checks:
         solid = facts.get(check["solid"])
         check["brep_closed"] = bool(solid and solid["closed"])
         check["brep_valid"] = bool(solid and solid["valid"])
         check["brep_volume"] = solid["volume"] if solid else 0.0
-    certificate = part_certificate(part, depth)
     errors = certificate["triangle_error"].tolist()
     if len(errors) != obj.Mesh.CountFacets:
         raise SagittaError("%s: the part meshes to %d triangles now, the feature has %d: recompute it, then Validate"
@@ -830,7 +937,7 @@ def validate_mesh_object(mesh_obj, links, max_depth=None):
     """Certifies any Mesh object (no (u, v): through a certified reference tessellation) against the
     exact shape of `links`. Changes nothing in the document."""
     depth = preferences()["max_depth"] if max_depth is None else max_depth
-    model, _ = shape_model(links, mesh_obj.Label)
+    model = whole_shape_model(links, mesh_obj.Label)
     points, facets = mesh_obj.Mesh.Topology
     if not facets:
         raise SagittaError("%s has no triangles" % mesh_obj.Label)
@@ -838,7 +945,29 @@ def validate_mesh_object(mesh_obj, links, max_depth=None):
     positions = [tuple(placement.multVec(p)) for p in points]
     mesh = _sagitta.mesh_from_arrays(positions, facets)
     set_library_memory_limit()  # the library's estimates (its reference tessellation, the validation) check it
-    return run_validation(model, mesh, depth)
+    return run_long("Validating %s" % mesh_obj.Label, lambda: run_validation(model, mesh, depth))
+
+
+def whole_shape_model(links, name):
+    """The patch model of every face of `links`, for measuring a mesh that is not Sagitta's against the
+    whole part. Raises SagittaError naming each face that cannot be measured (FreeCAD's names: trimmed
+    faces, surfaces with no exact Bézier form) and why: a distance to the other faces alone would be a
+    number about part of the part."""
+    faces = [f.copy() for _, fs in source_faces(links) for _, f in fs]
+    try:
+        cad = _sagitta.read_brep_string(Part.makeCompound(faces).exportBrepToString(), name)
+    except ValueError as error:
+        raise SagittaError(str(error))
+    names = freecad_face_names(links)
+    missing = ["%s (%s)" % (face_note_name(f, names), f["reason"] or f["status"])
+               for f in cad["faces"] if f["status"] != "tessellated"]
+    if missing:
+        parts = ", ".join(obj.Label for obj, _ in links)
+        raise SagittaError(
+            "%s cannot be measured against the whole of %s: %d of %d faces have no exact patch model: %s. "
+            "Tessellate %s with Sagitta (meshed whole) and Validate that tessellation instead"
+            % (name, parts, len(missing), len(cad["faces"]), "; ".join(missing), parts))
+    return cad["model"]
 
 
 def freecad_mesh_of(doc, links, linear_deflection=0.1, angular_deflection=0.5):
@@ -994,11 +1123,15 @@ def fit_tessellation(obj, target_error):
                            "set Level or Segments and Validate" % obj.Label)
     check_target_error(target_error)
     model, _ = shape_model(obj.Source, obj.Label)
+    scheme = obj.Scheme
     set_library_memory_limit()  # the fit's sizes are bounded; its tessellations check this limit as they allocate
-    try:
-        result = _sagitta.fit(model, obj.Scheme, target_error)
-    except (ValueError, MemoryError) as error:
-        raise library_error(error)
+
+    def fit():  # C++ work only (run_long): the document is changed after it, by edit_tessellation
+        try:
+            return _sagitta.fit(model, scheme, target_error)
+        except (ValueError, MemoryError) as error:
+            raise library_error(error)
+    result = run_long("Fitting %s to %g" % (obj.Label, target_error), fit)
     if not result["met"]:
         # The fit's last parameters, not a best possible error: finer ones may do better.
         raise SagittaError("The %s scheme did not meet the target %g: the fit stopped at %s (%d triangles), "

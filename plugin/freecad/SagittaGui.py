@@ -3,6 +3,8 @@ tessellation feature and the preferences page. Work is done by SagittaCore; this
 selections into calls and errors into FreeCAD messages (nothing here lets an exception reach
 FreeCAD's event loop)."""
 import os
+import threading
+import time
 import traceback
 
 import FreeCAD
@@ -11,9 +13,12 @@ from PySide import QtCore, QtGui
 
 import SagittaCore
 import SagittaImport
+import _sagitta
 
 ICONS = os.path.join(os.path.dirname(__file__), "icons")
 active_panel = None  # the open Sagitta task panel (scripts and tests reach it here)
+active_progress = None  # the progress dialog of the long work running now (tests press its Cancel)
+PROGRESS_AFTER = 0.3  # seconds of work before the progress dialog shows (quick work shows none)
 
 
 def icon(name):
@@ -23,6 +28,9 @@ def icon(name):
 def report_error(title, error):
     """Shows a problem as a FreeCAD message: the report view always, a dialog in the GUI.
     Unexpected exceptions also leave their traceback in the report view."""
+    if isinstance(error, SagittaCore.Cancelled):  # the user's own choice: one line, no dialog
+        FreeCAD.Console.PrintMessage("Sagitta %s: cancelled\n" % title)
+        return
     expected = isinstance(error, (SagittaCore.SagittaError, SagittaImport.PatchFileError))
     text = str(error) if expected else "%s: %s" % (type(error).__name__, error)
     FreeCAD.Console.PrintError("Sagitta %s: %s\n" % (title, text))
@@ -30,6 +38,68 @@ def report_error(title, error):
         FreeCAD.Console.PrintLog(traceback.format_exc())
     if not os.environ.get("SAGITTA_NO_DIALOGS"):
         QtGui.QMessageBox.warning(FreeCADGui.getMainWindow(), "Sagitta " + title, text)
+
+
+def run_with_progress(title, work):
+    """SagittaCore's long-work runner in the GUI: runs work() (C++ work that touches no document
+    object) in a worker thread while this thread keeps FreeCAD's event loop running, with a busy
+    progress dialog (window-modal: the document cannot be edited meanwhile) whose Cancel asks the C++
+    work to stop (_sagitta.request_cancel: it stops at its next budget check). Returns work()'s result
+    or raises its exception, here; once cancelled, raises SagittaCore.Cancelled when the worker has
+    stopped, whatever it returned, so the caller changes nothing."""
+    global active_progress
+    if active_progress is not None:  # one run at a time: a second would clear the first one's Cancel
+        raise SagittaCore.SagittaError("Another Sagitta computation is running; wait for it or cancel it")
+    SagittaCore.start_run()
+    outcome = {}
+
+    def worker():
+        try:
+            outcome["result"] = work()
+        except BaseException as error:  # handed to the GUI thread, raised there
+            outcome["error"] = error
+    dialog = QtGui.QProgressDialog(title + "…", "Cancel", 0, 0, FreeCADGui.getMainWindow())
+    dialog.setWindowTitle("Sagitta")
+    dialog.setWindowModality(QtCore.Qt.WindowModal)
+    dialog.setMinimumDuration(int(PROGRESS_AFTER * 1000))
+    dialog.setAutoReset(False)
+    dialog.setAutoClose(False)
+    cancelled = []
+
+    def cancel():
+        if not cancelled:
+            cancelled.append(time.perf_counter())
+            _sagitta.request_cancel()
+            FreeCAD.Console.PrintLog("Sagitta: cancelling %s\n" % title)
+    dialog.canceled.connect(cancel)
+    thread = threading.Thread(target=worker, name="Sagitta: " + title, daemon=True)
+    start = time.perf_counter()
+    thread.start()
+    active_progress = dialog
+    try:
+        while thread.is_alive():
+            if not dialog.isVisible() and not cancelled and time.perf_counter() - start >= PROGRESS_AFTER:
+                dialog.show()
+            # While the modal dialog is not showing (the first 0.3 s, after Cancel) user input waits:
+            # no command may start meanwhile.
+            flags = QtCore.QEventLoop.AllEvents if dialog.isVisible() else QtCore.QEventLoop.ExcludeUserInputEvents
+            QtGui.QApplication.processEvents(flags, 50)
+            thread.join(0.02)
+    finally:
+        active_progress = None
+        dialog.canceled.disconnect(cancel)
+        dialog.reset()  # stops its show timer: a dialog of quick work must never show later
+        dialog.hide()
+        dialog.setParent(None)  # owned by Python now: deleted on return (no event loop needed)
+        SagittaCore.start_run()  # the flag would stop the next synchronous work (a recompute)
+    if cancelled:
+        raise SagittaCore.Cancelled("%s: cancelled" % title)
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["result"]
+
+
+SagittaCore.set_long_runner(run_with_progress)
 
 
 def selected_links():
@@ -172,11 +242,8 @@ class TessellatePanel:
     def accept(self):
         values = {"Scheme": self.scheme.currentText(), "Level": self.level.value(), "Segments": self.segments.value(),
                   "BaseLevel": self.base_level.value(), "Threshold": self.threshold.value()}
-        try:
-            if self.creating:
-                SagittaCore.apply_parameters(self.obj, values)
-            else:
-                SagittaCore.edit_tessellation(self.obj, **values)
+        try:  # the meshing in a worker thread with a progress dialog and Cancel, then the recompute
+            SagittaCore.apply_with_progress(self.obj, values, edit=not self.creating)
         except Exception as error:
             self.stats.setText(self.stats_text())
             report_error("Tessellate", error)
@@ -337,11 +404,7 @@ class FitPanel:
 
     def accept(self):
         try:
-            QtGui.QApplication.setOverrideCursor(QtCore.Qt.WaitCursor)
-            try:
-                result = SagittaCore.fit_tessellation(self.obj, self.target_value())
-            finally:
-                QtGui.QApplication.restoreOverrideCursor()
+            result = SagittaCore.fit_tessellation(self.obj, self.target_value())  # progress dialog, Cancel
         except Exception as error:
             report_error("Fit", error)
             return False

@@ -6,6 +6,7 @@ teapot coloured by certified per-triangle error beside the validation task panel
 acceptance on seven shapes (check_primitives), one screenshot each into SAGITTA_PRIMITIVE_SCREENSHOTS."""
 import os
 import sys
+import time
 import traceback
 
 import FreeCAD
@@ -251,6 +252,116 @@ def colours_after_reopen(watcher, ctx):
     process_events(20)
     reopened = fraction()
     check(reopened > 0.5 * coloured, "the error colours are back after save + reopen (%.3f)" % reopened)
+
+
+def press_cancel_after(ms):
+    """Clicks the Cancel button of the progress dialog showing `ms` from now; the returned dict gets
+    "visible" (a dialog was showing) and "cancel" (when it was clicked, perf_counter)."""
+    import SagittaGui
+    seen = {}
+
+    def press():
+        dialog = SagittaGui.active_progress
+        seen["visible"] = dialog is not None and dialog.isVisible()
+        button = dialog.findChild(QtGui.QPushButton) if dialog is not None else None
+        if button is not None:
+            seen["cancel"] = time.perf_counter()
+            button.click()
+    QtCore.QTimer.singleShot(ms, press)
+    return seen
+
+
+def check_validate_cancel(watcher, doc, teapot):
+    """Validate of the teapot at uniform level 6 (262k triangles: about 4 s of certification) through
+    the command, cancelled 0.7 s after the start: the command returns within 2 s of the Cancel, no
+    results stored (the feature's validation properties and colours, the Undo stack), no panel, no
+    dialog, one report-view line."""
+    import SagittaCore
+    import SagittaGui
+    faces = ["Face%d" % (k + 1) for k in range(32)]
+    big = SagittaCore.make_tessellation(doc, [(teapot, faces)], scheme="uniform", level=6)
+    SagittaGui.attach_view_provider(big)
+    FreeCADGui.Control.closeDialog()
+    keys = ("ErrorLower", "ErrorUpper", "TopologyVerdict", "Certification", "FaceColors", "Triangles")
+    values, undo_count, messages = {k: getattr(big, k) for k in keys}, doc.UndoCount, len(watcher.texts)
+    before = report_view_text()
+    seen = press_cancel_after(700)
+    start = time.perf_counter()
+    run_command("Sagitta_Validate", big)
+    returned = time.perf_counter()
+    cancel = seen.get("cancel")
+    check(seen.get("visible") and cancel is not None and returned - cancel < 2.0,
+          "Validate cancelled %.2f s after the start returned %.2f s after Cancel"
+          % ((cancel or start) - start, returned - (cancel or start)))
+    added = report_view_text()[len(before):].strip().splitlines()
+    check({k: getattr(big, k) for k in keys} == values and doc.UndoCount == undo_count
+          and not isinstance(SagittaGui.active_panel, SagittaGui.ValidatePanel) and len(watcher.texts) == messages
+          and any("Validate: cancelled" in line for line in added),
+          "a cancelled Validate stores nothing (UndoCount %d -> %d, %r)" % (undo_count, doc.UndoCount, added))
+    doc.removeObject(big.Name)
+    process_events()
+
+
+def check_fit_cancel(watcher, doc, tess):
+    """Issue 18's acceptance: a long fit (the teapot's 32 faces, uniform to 1e-4: about 30 s
+    uncancelled) started through the Fit panel; the progress dialog's Cancel pressed within 1 s (a
+    QTimer clicks it); a timer tick is processed while the fit runs and within 2 s of the Cancel (the
+    GUI is responsive), the fit returns promptly, and the document is unchanged (objects, the
+    feature's properties and mesh, no Undo step), with one report-view line "cancelled", no dialog."""
+    import SagittaGui
+    keys = ("Scheme", "Level", "Segments", "BaseLevel", "Threshold", "TargetError", "Triangles", "ErrorUpper",
+            "Certification")
+    names, values = sorted(o.Name for o in doc.Objects), {k: getattr(tess, k) for k in keys}
+    facets, undo_count, messages = tess.Mesh.CountFacets, doc.UndoCount, len(watcher.texts)
+    before = report_view_text()
+    run_command("Sagitta_Fit", tess)
+    fit = SagittaGui.active_panel
+    fit.target.setText("0.0001")
+    ticks = []
+    ticker = QtCore.QTimer()
+    ticker.timeout.connect(lambda: ticks.append(time.perf_counter()))
+    ticker.start(50)
+    seen = press_cancel_after(700)
+    start = time.perf_counter()
+    accepted = fit.accept()
+    returned = time.perf_counter()
+    process_events(5)
+    time.sleep(0.1)
+    process_events(5)
+    ticker.stop()
+    cancel = seen.get("cancel")
+    check(seen.get("visible") and cancel is not None and cancel - start < 1.0,
+          "the fit shows a progress dialog; its Cancel pressed %.2f s after the start"
+          % ((cancel or returned) - start))
+    check(accepted is False and cancel is not None and returned - cancel < 2.0,
+          "Cancel stops the fit: accept returned %.2f s after Cancel" % (returned - (cancel or start)))
+    check(any(start + 0.1 < t < (cancel or start) for t in ticks),
+          "the GUI processes events while the fit runs (%d timer ticks before Cancel)"
+          % sum(1 for t in ticks if t < (cancel or start)))
+    # Responsive: the event loop runs on once the cancelled fit has returned, within 2 s of the Cancel.
+    after = [t - cancel for t in ticks if cancel is not None and t > returned]
+    check(bool(after) and after[0] < 2.0, "a timer tick %.3f s after Cancel, after the fit returned: the GUI is "
+          "responsive" % (after[0] if after else -1.0))
+    check(sorted(o.Name for o in doc.Objects) == names and {k: getattr(tess, k) for k in keys} == values
+          and tess.Mesh.CountFacets == facets and doc.UndoCount == undo_count and "Invalid" not in tess.State,
+          "a cancelled fit leaves the document unchanged (UndoCount %d -> %d)" % (undo_count, doc.UndoCount))
+    added = report_view_text()[len(before):].strip().splitlines()
+    check(len(watcher.texts) == messages and any("Fit: cancelled" in line for line in added),
+          "a cancelled fit: one report-view line, no dialog (%r)" % added)
+    fit.target.setText("0.02")
+    check(fit.accept() is True and tess.Segments == values["Segments"],
+          "the next fit runs (the cancellation does not stop it)")
+    FreeCADGui.Control.closeDialog()
+    deadline = time.perf_counter() + 0.6  # a progress dialog's show timer (0.3 s) must not outlive its work
+    while time.perf_counter() < deadline:
+        process_events()
+        time.sleep(0.02)
+    shown = [w for w in QtGui.QApplication.topLevelWidgets() + FreeCADGui.getMainWindow().findChildren(
+        QtGui.QProgressDialog) if isinstance(w, QtGui.QProgressDialog) and w.isVisible()]
+    check(not shown, "no progress dialog is left showing after the work (%d)" % len(shown))
+    FreeCAD.Console.PrintMessage("Sagitta GUI test: fit cancel: Cancel %.2f s after the start, fit returned %.3f s "
+                                 "after Cancel, first tick after that %.3f s after Cancel\n"
+                                 % ((cancel or start) - start, returned - (cancel or start), after[0] if after else -1))
 
 
 def check_whole_part(watcher):
@@ -624,6 +735,8 @@ def run():
     fit.target.setText("0.02")
     check(fit.accept() is True, "Fit runs")
     check(tess.TargetError == 0.02 and tess.Segments > 0, "Fit to 0.02 sets the segments (%d)" % tess.Segments)
+    check_fit_cancel(watcher, doc, tess)
+    check_validate_cancel(watcher, doc, teapot)
 
     FreeCADGui.Selection.clearSelection()
     FreeCADGui.Selection.addSelection(tess)

@@ -28,6 +28,9 @@ import SagittaImport  # noqa: E402
 CLI = os.environ["SAGITTA_CLI"]
 SHARED = os.environ.get("SHARED_DATA", "")
 WORK = tempfile.mkdtemp(prefix="sagitta-fc-")
+TEAPOT = os.path.join(SHARED, "teapot.bpt")
+# A fit that runs for minutes uncancelled (measured: see test_cancel_from_another_thread_stops_a_fit).
+LONG_FIT = ("uniform", 1e-4)
 
 
 def bezier_face():
@@ -51,6 +54,17 @@ def bspline_face():
     s.buildFromPolesMultsKnots(poles, [4, 1, 1, 4], [3, 1, 3], [0.0, 0.3, 0.7, 1.0], [0.0, 0.5, 1.0],
                                False, False, 3, 2, weights)
     return Part.Face(s)
+
+
+def heavy_weight_shell():
+    """A shell of one rational B-spline face whose weights lie 1e70 apart: a real part (meshed whole)
+    whose face the certificate cannot bound (beyond the 1e60 weight span the certified arithmetic
+    carries: docs/VALIDATION.md), the case of an uncertified face."""
+    poles = [[FreeCAD.Vector(i, j, 0.3 * ((i - 1) ** 2 - (j - 1) ** 2)) for j in range(3)] for i in range(3)]
+    weights = [[1.0, 1.0, 1.0], [1.0, 1e-70, 1.0], [1.0, 1.0, 1.0]]
+    s = Part.BSplineSurface()
+    s.buildFromPolesMultsKnots(poles, [3, 3], [3, 3], [0.0, 1.0], [0.0, 1.0], False, False, 2, 2, weights)
+    return Part.Shell([Part.Face(s)])
 
 
 def plate_with_hole_body(doc):
@@ -518,17 +532,20 @@ class HeadlessTest(unittest.TestCase):
         doc = FreeCAD.newDocument("Uncertified")
         face = doc.addObject("Part::Feature", "Face")
         face.Shape = bezier_face()
-        sphere = doc.addObject("Part::Sphere", "Sphere")
+        heavy = doc.addObject("Part::Feature", "Heavy")
+        heavy.Shape = heavy_weight_shell()
         doc.recompute()
         obj = SagittaCore.make_tessellation(doc, [(face, [])], scheme="uniform", level=2)
         self.assertEqual((obj.ErrorLower, obj.ErrorUpper, obj.Certification), (0.0, math.inf, "not validated"))
         report = SagittaCore.validate_tessellation(obj, max_depth=4)
         self.assertTrue(report["hausdorff"]["upper_certified"])
         self.assertEqual(obj.ErrorUpper, report["hausdorff"]["upper"])
-        # ESC on a sphere: its face is not certified today (the pole: docs/FREECAD.md, "Whole parts").
-        part = SagittaCore.make_tessellation(doc, [(sphere, [])], scheme="esc", level=3, threshold=0.01)
+        # A whole part whose one face the arithmetic cannot certify (heavy_weight_shell).
+        part = SagittaCore.make_tessellation(doc, [(heavy, [])], scheme="uniform", level=2)
+        self.assertTrue(part.WholePart)
         SagittaCore.validate_tessellation(part)
-        self.assertTrue(part.Certification.startswith("not certified (1 of 1 faces): Face1: the face has a pole"))
+        self.assertTrue(part.Certification.startswith("not certified (1 of 1 faces): Face1: not certified: patch 0's "
+                                                      "weights span"), part.Certification)
         self.assertEqual(part.ErrorUpper, math.inf)
         self.assertGreaterEqual(part.ErrorUpper, part.ErrorLower)
         self.assertEqual(SagittaCore.certified_upper({"upper": None, "upper_certified": False}), math.inf)
@@ -579,12 +596,14 @@ class HeadlessTest(unittest.TestCase):
         self.assertEqual(report["triangles"], mesh_obj.Mesh.CountFacets)
 
     def test_uncertified_faces_have_their_own_colour(self):
-        """A whole part whose face is not certified (ESC on a sphere: the pole) is coloured magenta
-        there (no bound: not on the error scale), and the colours survive save + reopen."""
+        """A whole part whose face is not certified (heavy_weight_shell) is coloured magenta there (no
+        bound: not on the error scale), and the colours survive save + reopen."""
         doc = FreeCAD.newDocument("UncertifiedColour")
-        sphere = doc.addObject("Part::Sphere", "Sphere")
+        heavy = doc.addObject("Part::Feature", "Heavy")
+        heavy.Shape = heavy_weight_shell()
         doc.recompute()
-        obj = SagittaCore.make_tessellation(doc, [(sphere, [])], scheme="esc", level=3, threshold=0.01)
+        obj = SagittaCore.make_tessellation(doc, [(heavy, [])], scheme="uniform", level=2)
+        self.assertTrue(obj.WholePart)
         report = SagittaCore.validate_tessellation(obj, max_depth=4)
         self.assertFalse(report["certified"])
         self.assertEqual(report["uncertified_triangles"], obj.Mesh.CountFacets)  # its one face
@@ -694,6 +713,161 @@ class HeadlessTest(unittest.TestCase):
             params.RemInt("MaxMemoryMiB")
             _sagitta.reset_budget()
         FreeCAD.closeDocument(doc.Name)
+
+    def test_foreign_mesh_of_a_part_with_trimmed_faces_is_refused(self):
+        """Validate of a mesh that is not Sagitta's against a Part Cylinder (its caps are trimmed planes:
+        no exact patch model) is refused, naming the caps by FreeCAD's names, rather than measured
+        against the side alone; nothing is added. A Bézier face still validates."""
+        cylinder = self.doc.addObject("Part::Cylinder", "Cylinder")
+        self.doc.recompute()
+        names, undo_count = sorted(o.Name for o in self.doc.Objects), self.doc.UndoCount
+        with self.assertRaises(SagittaCore.SagittaError) as refused:
+            SagittaCore.validate_freecad_mesh(self.doc, [(cylinder, [])], max_depth=4)
+        message = str(refused.exception)
+        for name in ("Face2", "Face3"):
+            self.assertIn(name, message)
+        self.assertNotIn("Face1", message)
+        self.assertIn("trimmed", message)
+        self.assertEqual(sorted(o.Name for o in self.doc.Objects), names)
+        self.assertEqual(self.doc.UndoCount, undo_count)
+        mesh_obj = SagittaCore.freecad_mesh_of(self.doc, [(cylinder, [])])
+        with self.assertRaises(SagittaCore.SagittaError) as refused:
+            SagittaCore.validate_mesh_object(mesh_obj, [(cylinder, [])], max_depth=4)
+        self.assertIn("Face2", str(refused.exception))
+        report = SagittaCore.validate_mesh_object(mesh_obj, [(cylinder, ["Face1"])], max_depth=4)
+        self.assertEqual(report["method"], "reference")  # the side alone, when that is what is selected
+        self.doc.removeObject(mesh_obj.Name)
+        self.doc.removeObject(cylinder.Name)
+        mesh_obj, report = SagittaCore.validate_freecad_mesh(self.doc, [(self.bezier, [])], max_depth=4)
+        self.assertTrue(report["hausdorff"]["upper_certified"])
+        self.doc.removeObject(mesh_obj.Name)
+
+    def test_cancel_from_another_thread_stops_a_fit(self):
+        """_sagitta.request_cancel from another thread stops a long fit (the teapot, uniform to 1e-4: 15-30 s
+        uncancelled), early or in its validations (3 s in: the validator's first pass kept it 5-11 s
+        before it checked the budget), with _sagitta.Interrupted within about a second; through SagittaCore the
+        feature is unchanged and no Undo step is left; the next run is not stopped by the old request."""
+        import threading
+        import _sagitta
+        if not os.path.exists(TEAPOT):
+            self.skipTest("shared data absent")
+        model = _sagitta.read_model(TEAPOT)
+
+        def cancel_after(seconds, when):
+            def cancel():
+                time.sleep(seconds)
+                when.append(time.perf_counter())
+                _sagitta.request_cancel()
+            thread = threading.Thread(target=cancel)
+            thread.start()
+            return thread
+        for delay in (0.5, 3.0):
+            when = []
+            canceller = cancel_after(delay, when)
+            SagittaCore.start_run()
+            with self.assertRaises(_sagitta.Interrupted):
+                _sagitta.fit(model, LONG_FIT[0], LONG_FIT[1])
+            latency = time.perf_counter() - when[0]
+            canceller.join()
+            print("fit cancelled %.3f s after request_cancel (%.1f s in)" % (latency, delay), flush=True)
+            self.assertLess(latency, 1.5)
+            self.assertTrue(_sagitta.cancel_requested())
+
+        # Through the workbench (headless: synchronous): the feature as it was.
+        obj = SagittaCore.make_tessellation(self.doc, [(self.teapot(), [])], scheme=LONG_FIT[0], level=2)
+        before, undo_count = SagittaCore.parameter_values(obj), self.doc.UndoCount
+        triangles, target = obj.Triangles, obj.TargetError
+        when = []
+        canceller = cancel_after(0.5, when)
+        with self.assertRaises(_sagitta.Interrupted):
+            SagittaCore.fit_tessellation(obj, LONG_FIT[1])
+        latency = time.perf_counter() - when[0]
+        canceller.join()
+        self.assertLess(latency, 1.5)
+        self.assertEqual((SagittaCore.parameter_values(obj), obj.Triangles, obj.TargetError, self.doc.UndoCount),
+                         (before, triangles, target, undo_count))
+        self.assertNotIn("Invalid", obj.State)
+        result = SagittaCore.fit_tessellation(obj, 0.05)  # a new run: the old request is cleared
+        self.assertTrue(result["met"])
+
+    def test_tessellate_panel_meshes_through_run_long(self):
+        """Tessellate's panel (apply_with_progress): the meshing runs once, through the long-work runner
+        (the GUI's worker thread), and the recompute takes its mesh (the same a plain recompute gives);
+        nothing is kept afterwards. Cancelled there: the feature and the Undo stack as they were."""
+        obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=2)
+        titles, meshings = [], []
+        original_runner, original_tessellate = SagittaCore._long_runner, SagittaCore.tessellate_model
+
+        def counting(model, params):
+            meshings.append(params)
+            return original_tessellate(model, params)
+        SagittaCore.tessellate_model = counting
+        SagittaCore.set_long_runner(lambda title, work: titles.append(title) or work())
+        try:
+            SagittaCore.apply_with_progress(obj, {"Level": 4})
+        finally:
+            SagittaCore.set_long_runner(original_runner)
+            SagittaCore.tessellate_model = original_tessellate
+        self.assertEqual((titles, len(meshings)), (["Tessellating " + obj.Label], 1))
+        self.assertEqual((obj.Level, obj.Triangles + obj.DegenerateTriangles), (4, 2 * 16 * 16))
+        self.assertIsNone(obj.Proxy.prepared)
+        topology = obj.Mesh.Topology
+        obj.touch()
+        self.doc.recompute()
+        self.assertEqual(obj.Mesh.Topology, topology)
+
+        def cancelled(title, work):
+            raise SagittaCore.Cancelled(title + ": cancelled")
+        undo_count = self.doc.UndoCount
+        SagittaCore.set_long_runner(cancelled)
+        try:
+            with self.assertRaises(SagittaCore.Cancelled):
+                SagittaCore.apply_with_progress(obj, {"Level": 5})
+        finally:
+            SagittaCore.set_long_runner(original_runner)
+        self.assertEqual((obj.Level, obj.Mesh.Topology, self.doc.UndoCount), (4, topology, undo_count))
+        self.assertIsNone(obj.Proxy.prepared)
+
+    def test_cancelled_validations_change_nothing(self):
+        """Validate cancelled in its long work (a runner that raises Cancelled, as the GUI's does on
+        Cancel): of a patch tessellation, of a whole part, of FreeCAD's mesh of a Part object: the
+        document as it was (objects, the features' validation properties, the Undo stack)."""
+        box = self.doc.addObject("Part::Box", "CancelBox")
+        self.doc.recompute()
+        patches = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=2)
+        part = SagittaCore.make_tessellation(self.doc, [(box, [])], scheme="uniform", level=1)
+        self.assertTrue(part.WholePart)
+        keys = ("ErrorLower", "ErrorUpper", "TopologyVerdict", "Certification", "FaceColors")
+
+        def state():
+            return (sorted(o.Name for o in self.doc.Objects), self.doc.UndoCount,
+                    [[getattr(o, k) for k in keys] for o in (patches, part)])
+
+        def cancelled(title, work):
+            raise SagittaCore.Cancelled(title + ": cancelled")
+        before = state()
+        original = SagittaCore._long_runner
+        SagittaCore.set_long_runner(cancelled)
+        try:
+            for validate in (lambda: SagittaCore.validate_tessellation(patches, max_depth=4),
+                             lambda: SagittaCore.validate_tessellation(part, max_depth=4),
+                             lambda: SagittaCore.validate_freecad_mesh(self.doc, [(self.bezier, [])], max_depth=4)):
+                with self.assertRaises(SagittaCore.Cancelled):
+                    validate()
+                self.assertEqual(state(), before)
+        finally:
+            SagittaCore.set_long_runner(original)
+        for obj in (patches, part, box):
+            self.doc.removeObject(obj.Name)
+
+    def teapot(self):
+        """The teapot's 32 Bézier faces as one Part object (the importer's)."""
+        existing = [o for o in self.doc.Objects if o.Label.startswith("teapot")]
+        if existing:
+            return existing[0]
+        obj = SagittaImport.import_file(TEAPOT, self.doc)
+        self.doc.recompute()
+        return obj
 
     def test_fit_refuses_a_target_that_is_not_a_positive_number(self):
         obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=1)

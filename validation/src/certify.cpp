@@ -918,6 +918,7 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
   est.point.resize(count);
   est.uv.resize(count);
   tbb::parallel_for(size_t(0), count, [&](size_t t) {
+    if ((t & 1023u) == 0) budget::check("validation");  // a million triangles take seconds here
     const auto T = triangle_corners(mesh, t);
     const auto& uv = mesh.triangle_uv[t];
     const BezierPatch& patch = *pd[mesh.triangle_patch[t]].patch;
@@ -982,7 +983,9 @@ void match_estimates_to_model(const Model& model, const Tessellation& mesh, cons
   std::iota(by_estimate.begin(), by_estimate.end(), size_t(0));
   std::sort(by_estimate.begin(), by_estimate.end(), [&](size_t a, size_t b) { return est.value[a] > est.value[b]; });
   double running_max = 0.0;
+  size_t visited = 0;
   for (size_t t : by_estimate) {
+    if ((visited++ & 255u) == 0) budget::check("validation");
     if (est.value[t] <= running_max) break;
     if (near[t].empty()) {
       running_max = est.value[t];

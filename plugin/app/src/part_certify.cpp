@@ -578,6 +578,7 @@ PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& o
   cert.faces.resize(part.faces.size());
   // Faces in parallel; each face's certificate is itself parallel over its triangles.
   tbb::parallel_for(size_t(0), part.faces.size(), [&](size_t k) {
+    budget::check("certifying the part");  // per face (the validator checks per refinement leaf)
     const occt::PartFace& f = part.faces[k];
     FaceCertificate& fc = cert.faces[k];
     fc.face = f.face_index;

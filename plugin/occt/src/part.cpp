@@ -1283,6 +1283,7 @@ void build_part(PartBuilder& b) {
   std::vector<FaceGeometry>& geometry = b.geometry;
   build_edges(b);
   for (FaceGeometry& g : geometry) {
+    budget::check("meshing the part");  // per face: a cancel waits for one face's mesh at most
     PartFace pf;
     pf.face_index = g.report.face_index;
     pf.name = g.report.name;
@@ -1346,17 +1347,27 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
   const ShapeIndex x = index_shape(shape);
   if (x.faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
   std::vector<FaceGeometry> geometry;
-  for (int f = 0; f < x.faces.Extent(); ++f) geometry.push_back(face_geometry(x, f, name, options.cad));
+  for (int f = 0; f < x.faces.Extent(); ++f) {
+    budget::check("converting the part's faces");
+    geometry.push_back(face_geometry(x, f, name, options.cad));
+  }
   check_part_memory(geometry, options.scheme, name);
-  for (FaceGeometry& g : geometry) tessellate_face_patches(g, options.scheme);
+  for (FaceGeometry& g : geometry) {
+    budget::check("tessellating the part's faces");
+    tessellate_face_patches(g, options.scheme);
+  }
   std::vector<EdgePlan> plans;
-  for (int e = 0; e < x.edges.Extent(); ++e) plans.push_back(plan_edge(options, x, geometry, e));
+  for (int e = 0; e < x.edges.Extent(); ++e) {
+    budget::check("planning the part's edges");
+    plans.push_back(plan_edge(options, x, geometry, e));
+  }
   // Chords that cross are split first on the loops alone (each pass re-checks only the faces of the
   // edges just split); near a vertex where two curves are tangent this takes a pass per chord.
   std::vector<std::vector<double>> extra(x.edges.Extent());
   std::set<int> faces;
   for (int f = 0; f < x.faces.Extent(); ++f) faces.insert(f);
   for (int pass = 0; pass < 64; ++pass) {
+    budget::check("splitting crossing chords");
     PartMesh scratch;
     PartBuilder b{options, x, geometry, scratch, {}, {}, {}, extra, {}, plans};
     build_edges(b);
