@@ -823,6 +823,52 @@ def part_certificate(part, max_depth):
         raise library_error(error)
 
 
+def crack_faces(part):
+    """Per face index: how many open mesh edges that are not model boundary (cracks: a face not
+    meshed, a seam not stitched, a gap between faces) run along the face's triangles."""
+    import numpy
+    triangles = numpy.asarray(part.mesh.triangles, dtype=numpy.int64)
+    if not len(triangles):
+        return {}
+    edges = numpy.sort(numpy.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+    owner = numpy.tile(numpy.arange(len(triangles)), 3)
+    _, inverse, counts = numpy.unique(edges, axis=0, return_inverse=True, return_counts=True)
+    open_edge = counts[inverse.reshape(-1)] == 1
+    boundary = {tuple(sorted(e)) for e in numpy.asarray(part.boundary_edges, dtype=numpy.int64).tolist()}
+    faces = numpy.asarray(part.triangle_face)
+    out = {}
+    for k in numpy.nonzero(open_edge)[0].tolist():
+        if tuple(edges[k].tolist()) not in boundary:
+            face = int(faces[owner[k]])
+            out[face] = out.get(face, 0) + 1
+    return out
+
+
+def faces_to_check(part, certificate, names):
+    """The faces a user should look at, with why, FreeCAD's names: skipped or not certified (the
+    certificate's reason), or bordered by cracks (crack_faces). [{"name", "face_index", "why"}]."""
+    cracks = crack_faces(part)
+    out = []
+    for face, c in zip(part.faces, certificate["faces"]):
+        why = []
+        if not c["certified"]:
+            why.append(c.get("reason") or "not certified")
+        if cracks.get(face["face_index"]):
+            why.append("%d crack edges along it" % cracks[face["face_index"]])
+        if why:
+            out.append({"name": face_note_name(face, names), "face_index": face["face_index"], "why": "; ".join(why)})
+    return out
+
+
+def face_elements(links):
+    """Per face index (the library's numbering): (object, "FaceN"), for selecting it in the 3D view."""
+    out = []
+    for obj, subs in links:
+        names = selected_face_names(subs) or ["Face%d" % (k + 1) for k in range(len(obj.Shape.Faces))]
+        out.extend((obj, n) for n in names)
+    return out
+
+
 def certificate_text(certificate, part, names):
     """"certified" when every face is; else "not certified (k of n faces): " and each uncertified face,
     FreeCAD's name (`names`: freecad_face_names) and the certificate's reason."""
@@ -878,6 +924,7 @@ def validate_part(obj, max_depth=None):
                   "route", "certified", "lower", "upper", "reason")})
                   for face, c in zip(part.faces, certificate["faces"])],
               "seconds": time.perf_counter() - start,
+              "faces_to_check": faces_to_check(part, certificate, names),
               "triangle_error": certificate["triangle_error"], "colour_scale_top": top,
               "uncertified_triangles": sum(1 for e in errors if not math.isfinite(e))}
 
@@ -1061,8 +1108,13 @@ def part_html(report, label):
             report["triangles"], report["vertices"], report["faces"], report["faces_trimmed"], report["faces_skipped"]),
         "<h2>Distance: %s</h2>" % html.escape(report["distance"]),
         "<p>Hausdorff %s</p>" % html.escape(interval_words(report["hausdorff"])),
-        "<table border='1'><tr><th>face</th><th>route</th><th>lower</th><th>upper</th><th>reason</th></tr>",
     ]
+    check = report.get("faces_to_check", [])
+    body.append("<h2>Faces to check: %s</h2>" % ("none" if not check else "%d" % len(check)))
+    if check:
+        body.append("<ul>%s</ul>" % "".join("<li>%s: %s</li>" % (html.escape(f["name"]), html.escape(f["why"]))
+                                            for f in check))
+    body.append("<table border='1'><tr><th>face</th><th>route</th><th>lower</th><th>upper</th><th>reason</th></tr>")
     for f in report["face_certificates"]:
         body.append("<tr><td>%s</td><td>%s</td><td>%.6g</td><td>%s</td><td>%s</td></tr>" % (
             html.escape(f["name"]), html.escape(f["route"] or ""), f["lower"] or 0.0,

@@ -301,12 +301,14 @@ def interval_text(interval):
 class ValidatePanel:
     """Results of a validation: certified intervals, topology verdict, colour legend, HTML report."""
 
-    def __init__(self, label, report):
+    def __init__(self, label, report, source=None):
         self.label = label
         self.report = report
+        self.source = source  # the feature's Source links: faces_to_check are selected there
         self.form, layout = _form("Sagitta validation")
         if report.get("kind") == "part":
             self.part_rows(layout, report)
+            self.check_rows(layout, report)
         else:
             self.patch_rows(layout, label, report)
         self.report_button = QtGui.QPushButton("Save HTML report…")
@@ -331,6 +333,32 @@ class ValidatePanel:
             layout.addRow("", label("open edges %d (model boundary %d, cracks %d), T-junctions %d, non-manifold %d" % (
                 check["open_edges"], check["model_boundary_edges"], check["crack_edges"], check["t_junctions"],
                 check["non_manifold_edges"])))
+
+    def check_rows(self, layout, report):
+        """The faces to look at (not certified, skipped, bordered by cracks) with why, and a button that
+        selects them on the source shape in the 3D view."""
+        faces = report.get("faces_to_check", [])
+        if not faces:
+            return
+        text = QtGui.QLabel("Faces to check: " + "; ".join("%s (%s)" % (f["name"], f["why"]) for f in faces))
+        text.setWordWrap(True)
+        layout.addRow(text)
+        self.select_button = QtGui.QPushButton("Select these %d faces in the 3D view" % len(faces))
+        self.select_button.setEnabled(bool(self.source))
+        self.select_button.clicked.connect(self.select_faces)
+        layout.addRow(self.select_button)
+
+    def select_faces(self):
+        """Selects faces_to_check on the source objects (shown, so that the selection is visible)."""
+        try:
+            elements = SagittaCore.face_elements(self.source)
+            FreeCADGui.Selection.clearSelection()
+            for f in self.report.get("faces_to_check", []):
+                obj, name = elements[f["face_index"]]
+                obj.ViewObject.Visibility = True
+                FreeCADGui.Selection.addSelection(obj, name)
+        except Exception as error:
+            report_error("Validate", error)
 
     @staticmethod
     def part_legend_rows(layout, report, label):
@@ -480,7 +508,7 @@ class ValidateCommand:
             obj = _selected_tessellation()
             if obj is not None:
                 report = SagittaCore.validate_tessellation(obj)
-                show_panel(ValidatePanel(obj.Label, report))
+                show_panel(ValidatePanel(obj.Label, report, obj.Source))
                 return
             links = selected_links()
             meshes = [o for o, _ in links if o.isDerivedFrom("Mesh::Feature")]

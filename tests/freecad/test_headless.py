@@ -11,6 +11,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import types
 import time
 import traceback
 import unittest
@@ -345,6 +346,7 @@ class HeadlessTest(unittest.TestCase):
         self.assertEqual(len(errors), obj.Mesh.CountFacets)
         expected, top = SagittaCore.certified_error_colours(errors.tolist())
         self.assertEqual((report["colour_scale_top"], report["uncertified_triangles"]), (top, 0))
+        self.assertEqual(report["faces_to_check"], [])  # closed and certified: nothing to look at
         self.assertTrue(0 < top <= obj.ErrorUpper)
         self.assertEqual(len(obj.FaceColors), obj.Mesh.CountFacets)
         for got, want in zip(obj.FaceColors, expected):
@@ -607,6 +609,13 @@ class HeadlessTest(unittest.TestCase):
         report = SagittaCore.validate_tessellation(obj, max_depth=4)
         self.assertFalse(report["certified"])
         self.assertEqual(report["uncertified_triangles"], obj.Mesh.CountFacets)  # its one face
+        self.assertEqual([(f["name"], f["face_index"]) for f in report["faces_to_check"]], [("Face1", 0)])
+        self.assertIn("weights span", report["faces_to_check"][0]["why"])
+        html_path = os.path.join(WORK, "heavy.html")
+        SagittaCore.write_html_report(report, obj.Label, html_path)
+        with open(html_path, encoding="utf-8") as f:
+            page = f.read()
+        self.assertIn("<h2>Faces to check: 1</h2>\n<ul><li>Face1: not certified: patch 0&#x27;s weights span", page)
         self.assertEqual({tuple(c[:3]) for c in obj.FaceColors}, {SagittaCore.UNCERTIFIED_COLOUR})
         path, name = os.path.join(WORK, "uncertified-colour.FCStd"), obj.Name
         doc.saveAs(path)
@@ -618,6 +627,15 @@ class HeadlessTest(unittest.TestCase):
         self.assertEqual(top, 1.0)
         self.assertEqual(colours, [SagittaCore.legend_colour(0.5), SagittaCore.UNCERTIFIED_COLOUR,
                                    SagittaCore.legend_colour(1.0), SagittaCore.legend_colour(0.0)])
+
+    def test_crack_faces_are_the_faces_along_open_edges_that_are_not_model_boundary(self):
+        """crack_faces counts, per face, the open mesh edges that are not model boundary: two triangles
+        of faces 0 and 1 sharing an edge; their four other edges are open, one of them model boundary."""
+        part = types.SimpleNamespace(mesh=types.SimpleNamespace(triangles=[[0, 1, 2], [2, 1, 3]]),
+                                     boundary_edges=[[3, 2]], triangle_face=[0, 1])
+        self.assertEqual(SagittaCore.crack_faces(part), {0: 2, 1: 1})
+        part.boundary_edges = [[0, 1], [1, 3], [2, 3], [0, 2]]
+        self.assertEqual(SagittaCore.crack_faces(part), {})
 
     def test_level_beyond_memory_is_refused_before_allocating(self):
         """Issue 18: a level beyond memory is refused before anything is allocated, with a message
