@@ -200,7 +200,7 @@ def part_parameters(params):
     """The keyword arguments of _sagitta.mesh_part_brep for a feature's scheme parameters."""
     if params["scheme"] == "pn":
         raise SagittaError("pn is a scheme for triangle meshes; tessellate a part with uniform or esc")
-    return {k: v for k, v in params.items() if k in ("scheme", "level", "segments", "threshold")}
+    return {k: v for k, v in params.items() if k in ("scheme", "level", "segments", "threshold", "edge_tolerance")}
 
 
 def mesh_part(links, name, params):
@@ -440,6 +440,9 @@ class TessellationFeature:
         add("App::PropertyInteger", "Segments", "Sagitta", "uniform: N segments per side instead of 2^Level when > 0")
         add("App::PropertyFloat", "Threshold", "Sagitta", "esc: distance threshold (model units)")
         add("App::PropertyFloat", "TargetError", "Sagitta", "Fit to target error: the certified error wanted")
+        add("App::PropertyFloat", "EdgeTolerance", "Sagitta",
+            "Whole parts: B-rep edges are split until their chords lie within this distance of the curve "
+            "(model units; 0: the scheme's own density). Set by Fit")
         if "Scheme" not in existing:
             obj.Scheme = SCHEMES
         for kind, name, doc in STAT_PROPERTIES:
@@ -590,7 +593,7 @@ def apply_with_progress(obj, values, edit=True):
 
 
 # The parameters a user edits; the fit sets them too.
-PARAMETERS = ("Scheme", "Level", "Segments", "BaseLevel", "Threshold")
+PARAMETERS = ("Scheme", "Level", "Segments", "BaseLevel", "Threshold", "EdgeTolerance")
 NOT_VALIDATED = "not validated"
 
 
@@ -605,20 +608,26 @@ def scheme_parameters(obj):
     for key in ("Level", "Segments", "BaseLevel"):
         if getattr(obj, key) < 0:
             raise SagittaError("%s must be >= 0, got %d" % (key, getattr(obj, key)))
+    edge_tolerance = getattr(obj, "EdgeTolerance", 0.0)
+    if not (edge_tolerance >= 0.0 and math.isfinite(edge_tolerance)):
+        raise SagittaError("EdgeTolerance must be a finite number >= 0, got %r" % (edge_tolerance,))
     if obj.Scheme == "uniform" and obj.Segments > 0:
-        return {"scheme": "uniform", "segments": obj.Segments}
-    params = {"scheme": obj.Scheme, "level": obj.Level}
+        params = {"scheme": "uniform", "segments": obj.Segments}
+    else:
+        params = {"scheme": obj.Scheme, "level": obj.Level}
     if obj.Scheme == "esc":
         params["threshold"] = obj.Threshold
     if obj.Scheme == "pn":
         params["base_level"] = obj.BaseLevel
+    if edge_tolerance > 0.0:  # whole parts only (part_parameters); patch models have no B-rep edges
+        params["edge_tolerance"] = edge_tolerance
     return params
 
 
 def tessellate_model(model, params):
     """Runs a scheme; invalid parameters become SagittaError with the library's message."""
     try:
-        return _sagitta.tessellate(model, **params)
+        return _sagitta.tessellate(model, **{k: v for k, v in params.items() if k != "edge_tolerance"})
     except (ValueError, MemoryError) as error:
         raise library_error(error)
 
@@ -1154,6 +1163,29 @@ def check_target_error(target_error):
         raise SagittaError("The target error must be a finite number > 0 (model units), got %r" % (target_error,))
 
 
+def fit_part_tessellation(obj, target_error):
+    """A whole part's fit (`sagitta fit PART`): uniform segments per patch side and an edge tolerance
+    of half the target, the fewest triangles whose certified error (every face) is <= target. Sets
+    Scheme uniform, Segments, EdgeTolerance and TargetError in one transaction; the recompute's mesh is
+    the one the fit certified (the mesher is deterministic). SagittaError, nothing changed, when not met."""
+    text, label = part_brep_text(obj.Source), obj.Label
+    depth = preferences()["max_depth"]
+    set_library_memory_limit()
+
+    def fit():  # C++ work only (run_long)
+        try:
+            return _sagitta.fit_part_brep(text, label, target_error, max_depth=depth)
+        except (ValueError, MemoryError) as error:
+            raise library_error(error)
+    result = run_long("Fitting %s to %g" % (label, target_error), fit)
+    if not result["met"]:
+        raise SagittaError("%s: the whole part did not meet the target %g: %s" % (label, target_error, result["reason"]))
+    edit_tessellation(obj, Scheme="uniform", Segments=result["segments"], EdgeTolerance=result["edge_tolerance"],
+                      TargetError=target_error)
+    result["scheme"] = "uniform"
+    return result
+
+
 def fit_parameters_text(result):
     """The parameters a fit result chose, in property names."""
     if result["scheme"] == "uniform":
@@ -1170,10 +1202,9 @@ def fit_tessellation(obj, target_error):
     fit --json`). Raises SagittaError, changing nothing, when the target cannot be met."""
     if not is_tessellation(obj):
         raise SagittaError("%s is not a Sagitta tessellation" % obj.Label)
-    if obj.WholePart:
-        raise SagittaError("%s is a whole part: the fit works on patch models only (as `sagitta fit`); "
-                           "set Level or Segments and Validate" % obj.Label)
     check_target_error(target_error)
+    if obj.WholePart:
+        return fit_part_tessellation(obj, target_error)
     model, _ = shape_model(obj.Source, obj.Label)
     scheme = obj.Scheme
     set_library_memory_limit()  # the fit's sizes are bounded; its tessellations check this limit as they allocate

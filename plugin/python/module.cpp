@@ -610,6 +610,27 @@ void bind_part(py::module_& m) {
       py::arg("segments") = py::none(), py::arg("threshold") = py::none(), py::arg("edge_tolerance") = 0.0,
       "mesh_part on a shape's BREP text (FreeCAD: shape.exportBrepToString()); `name` names it in messages");
   m.def(
+      "fit_part_brep",
+      [](const std::string& text, const std::string& name, double target_error, int max_depth) {
+        if (!(target_error > 0.0) || !std::isfinite(target_error)) throw InputError("the target error must be a positive number");
+        if (max_depth < 0 || max_depth > 10) throw InputError("max_depth must be in 0..10");
+        nlohmann::json doc;
+        {
+          py::gil_scoped_release release;
+          CertifyOptions certify;
+          certify.max_depth = max_depth;
+          const app::PartFit fit = app::fit_part(
+              [&](const occt::PartOptions& options) { return occt::mesh_part_brep_string(text, name, options); },
+              target_error, certify);
+          doc = app::part_fit_json(fit);
+          doc.erase("part");
+        }
+        return to_python(doc);
+      },
+      py::arg("brep_text"), py::arg("name"), py::arg("target_error"), py::arg("max_depth") = 8,
+      "Fit a whole part (BREP text) to a certified target error, as `sagitta fit PART --json` (uniform segments "
+      "and an edge tolerance; met, reason, segments, edge_tolerance, triangles, certified_error, steps)");
+  m.def(
       "certify_part",
       [](const occt::PartMesh& part, int max_depth) {
         if (max_depth < 0 || max_depth > 10) throw InputError("max_depth must be in 0..10");

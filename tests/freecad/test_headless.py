@@ -356,8 +356,6 @@ class HeadlessTest(unittest.TestCase):
         SagittaCore.write_html_report(report, obj.Label, html_path)
         with open(html_path) as f:
             self.assertIn("Distance: certified", f.read())
-        with self.assertRaises(SagittaCore.SagittaError):
-            SagittaCore.fit_tessellation(obj, 0.01)
         with self.assertRaises(SagittaCore.SagittaError):  # pn is for triangle meshes: refused, nothing added
             SagittaCore.make_tessellation(doc, [(body, [])], scheme="pn", level=2, base_level=1)
 
@@ -886,6 +884,43 @@ class HeadlessTest(unittest.TestCase):
         obj = SagittaImport.import_file(TEAPOT, self.doc)
         self.doc.recompute()
         return obj
+
+    def test_fit_of_a_whole_part_meets_the_target(self):
+        """Fit of a whole part (a PartDesign plate with a hole) as `sagitta fit PART`: uniform Segments and
+        an EdgeTolerance of half the target, set in one Undo step; Validate of the refitted feature then
+        certifies every face with the fit's certified error, <= the target; Undo restores the old values."""
+        doc = FreeCAD.newDocument("FitPart")
+        doc.UndoMode = 1
+        body = plate_with_hole_body(doc)
+        obj = SagittaCore.make_tessellation(doc, [(body, [])], scheme="esc", level=2, threshold=0.01)
+        self.assertTrue(obj.WholePart)
+        undo_count, facets = doc.UndoCount, obj.Mesh.CountFacets
+        target = 0.01
+        result = SagittaCore.fit_tessellation(obj, target)
+        self.assertTrue(result["met"])
+        self.assertLessEqual(result["certified_error"], target)
+        self.assertEqual((obj.Scheme, obj.Segments, obj.EdgeTolerance, obj.TargetError),
+                         ("uniform", result["segments"], result["edge_tolerance"], target))
+        self.assertEqual(obj.EdgeTolerance, target / 2)
+        self.assertEqual(obj.Mesh.CountFacets, result["triangles"])
+        self.assertEqual(doc.UndoCount, undo_count + 1)
+        report = SagittaCore.validate_tessellation(obj)
+        self.assertTrue(report["certified"])
+        self.assertEqual(report["hausdorff"]["upper"], result["certified_error"])
+        # The fewest segments of the family: one fewer misses the target (or none is tried below 1).
+        self.assertTrue(result["segments"] == 1 or any(
+            s["segments"] == result["segments"] - 1 and not (s["certified"] and s["upper"] <= target)
+            for s in result["steps"]))
+        doc.undo()  # the validation
+        doc.undo()  # the fit
+        doc.recompute()
+        self.assertEqual((obj.Scheme, obj.Level, obj.Segments, obj.EdgeTolerance), ("esc", 2, 0, 0.0))
+        self.assertEqual(obj.Mesh.CountFacets, facets)
+        with self.assertRaises(SagittaCore.SagittaError) as refused:  # a negative edge tolerance
+            SagittaCore.edit_tessellation(obj, EdgeTolerance=-1.0)
+        self.assertIn("EdgeTolerance", str(refused.exception))
+        self.assertEqual(obj.EdgeTolerance, 0.0)
+        FreeCAD.closeDocument(doc.Name)
 
     def test_fit_refuses_a_target_that_is_not_a_positive_number(self):
         obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=1)
