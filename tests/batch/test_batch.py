@@ -151,12 +151,19 @@ class TargetErrorAndPeer(unittest.TestCase):
             self.assertEqual(cup["hausdorff_upper"], ref["certified_error"])
             self.assertEqual(json.loads(cup["fit_parameters"])["level"], ref["level"])
             # A whole CAD part is fitted as a direct `sagitta fit` is (uniform segments, edge tolerance): pr1ct's
-            # spheres, re-triangulated under the edge tolerance, have a pole the certificate does not bound
-            # yet, so the fit refuses the part and names the face and the reason (and no number).
-            self.assertEqual(part["outcome"], "bad_input")
-            self.assertIn("not certified", part["message"])
-            self.assertIn("pole", part["message"])
-            self.assertIsNone(part["hausdorff_upper"])
+            # spheres, re-triangulated under the edge tolerance, have poles; every face is certified, the
+            # target met, and the numbers are the direct fit's.
+            self.assertEqual(part["outcome"], "ok", part["message"])
+            self.assertAlmostEqual(part["requested_error"], 0.01 * part["model_diagonal"])
+            self.assertLessEqual(part["hausdorff_lower"], part["hausdorff_upper"])
+            self.assertLessEqual(part["hausdorff_upper"], part["requested_error"])
+            with tempfile.TemporaryDirectory() as ref_dir:
+                subprocess.run([SAGITTA, "fit", f"{corpus}/pr1ct.stp", "--target-error", repr(part["requested_error"]),
+                                "--json", f"{ref_dir}/fit.json"], check=True, capture_output=True)
+                with open(f"{ref_dir}/fit.json") as f:
+                    ref = json.load(f)
+            self.assertEqual(part["triangles"], ref["triangles"])
+            self.assertEqual(part["hausdorff_upper"], ref["certified_error"])
             self.assertEqual(part["peer_outcome"], "ok", part["peer_message"])
             self.assertGreater(part["peer_triangles"], 0)
             with tempfile.TemporaryDirectory() as ref_dir:  # the reference: sagitta peer occt run directly
