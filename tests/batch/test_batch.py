@@ -50,13 +50,17 @@ def bpt_patches(path):
         return int(f.readline().split()[0])
 
 
-def direct_validate(path, level):
-    """The reference: sagitta validate run directly on the file."""
+def direct_json(*args):
+    """The reference: `sagitta ARGS --json FILE` run directly, its JSON report."""
     with tempfile.TemporaryDirectory() as tmp:
-        subprocess.run([SAGITTA, "validate", path, "--level", str(level), "--json", f"{tmp}/r.json"], check=True,
-                       capture_output=True)
+        subprocess.run([SAGITTA, *args, "--json", f"{tmp}/r.json"], check=True, capture_output=True)
         with open(f"{tmp}/r.json") as f:
             return json.load(f)
+
+
+def direct_validate(path, level):
+    """The reference: sagitta validate run directly on the file."""
+    return direct_json("validate", path, "--level", str(level))
 
 
 class PlantedFaults(unittest.TestCase):
@@ -125,6 +129,18 @@ def control_box_diagonal(path):
 
 
 class TargetErrorAndPeer(unittest.TestCase):
+    def assert_fit_row_is_the_direct_fit(self, row, path):
+        """A fit row at 1e-2 of the model's diagonal met its target, and its numbers are those of
+        `sagitta fit PATH` run directly at the same target; returns that fit's report."""
+        self.assertEqual(row["outcome"], "ok", row["message"])
+        self.assertAlmostEqual(row["requested_error"], 0.01 * row["model_diagonal"])
+        self.assertLessEqual(row["hausdorff_lower"], row["hausdorff_upper"])
+        self.assertLessEqual(row["hausdorff_upper"], row["requested_error"])
+        ref = direct_json("fit", path, "--target-error", repr(row["requested_error"]))
+        self.assertEqual(row["triangles"], ref["triangles"])
+        self.assertEqual(row["hausdorff_upper"], ref["certified_error"])
+        return ref
+
     def test_relative_target_fit_cad_refusal_and_occt_peer(self):
         with tempfile.TemporaryDirectory() as tmp:
             corpus = make_corpus(f"{tmp}/corpus", ["teacup.bpt", "cad/step/pr1ct.stp"])
@@ -138,39 +154,15 @@ class TargetErrorAndPeer(unittest.TestCase):
             # The diagonal is measured on surface points: inside the control-point box, and close to it.
             box = control_box_diagonal(f"{corpus}/teacup.bpt")
             self.assertTrue(0.5 * box < cup["model_diagonal"] <= box * (1 + 1e-9), (cup["model_diagonal"], box))
-            self.assertEqual(cup["outcome"], "ok", cup["message"])
-            self.assertAlmostEqual(cup["requested_error"], 0.01 * cup["model_diagonal"])
-            self.assertLessEqual(cup["hausdorff_lower"], cup["hausdorff_upper"])
-            self.assertLessEqual(cup["hausdorff_upper"], cup["requested_error"])
-            with tempfile.TemporaryDirectory() as ref_dir:  # the reference: sagitta fit run directly
-                subprocess.run([SAGITTA, "fit", f"{corpus}/teacup.bpt", "--target-error", repr(cup["requested_error"]),
-                                "--json", f"{ref_dir}/fit.json"], check=True, capture_output=True)
-                with open(f"{ref_dir}/fit.json") as f:
-                    ref = json.load(f)
-            self.assertEqual(cup["triangles"], ref["triangles"])
-            self.assertEqual(cup["hausdorff_upper"], ref["certified_error"])
+            ref = self.assert_fit_row_is_the_direct_fit(cup, f"{corpus}/teacup.bpt")
             self.assertEqual(json.loads(cup["fit_parameters"])["level"], ref["level"])
             # A whole CAD part is fitted as a direct `sagitta fit` is (uniform segments, edge tolerance): pr1ct's
             # spheres, re-triangulated under the edge tolerance, have poles; every face is certified, the
             # target met, and the numbers are the direct fit's.
-            self.assertEqual(part["outcome"], "ok", part["message"])
-            self.assertAlmostEqual(part["requested_error"], 0.01 * part["model_diagonal"])
-            self.assertLessEqual(part["hausdorff_lower"], part["hausdorff_upper"])
-            self.assertLessEqual(part["hausdorff_upper"], part["requested_error"])
-            with tempfile.TemporaryDirectory() as ref_dir:
-                subprocess.run([SAGITTA, "fit", f"{corpus}/pr1ct.stp", "--target-error", repr(part["requested_error"]),
-                                "--json", f"{ref_dir}/fit.json"], check=True, capture_output=True)
-                with open(f"{ref_dir}/fit.json") as f:
-                    ref = json.load(f)
-            self.assertEqual(part["triangles"], ref["triangles"])
-            self.assertEqual(part["hausdorff_upper"], ref["certified_error"])
+            self.assert_fit_row_is_the_direct_fit(part, f"{corpus}/pr1ct.stp")
             self.assertEqual(part["peer_outcome"], "ok", part["peer_message"])
             self.assertGreater(part["peer_triangles"], 0)
-            with tempfile.TemporaryDirectory() as ref_dir:  # the reference: sagitta peer occt run directly
-                subprocess.run([SAGITTA, "peer", "occt", f"{corpus}/pr1ct.stp", "--deflection", "0.5", "--json",
-                                f"{ref_dir}/peer.json"], check=True, capture_output=True)
-                with open(f"{ref_dir}/peer.json") as f:
-                    ref = json.load(f)
+            ref = direct_json("peer", "occt", f"{corpus}/pr1ct.stp", "--deflection", "0.5")
             self.assertEqual(part["peer_triangles"], ref["triangles"])
             self.assertEqual(part["peer_hausdorff_lower"], ref["hausdorff"]["lower"])
             with open(f"{tmp}/out/report.html") as f:
