@@ -1,8 +1,10 @@
 // `sagitta peer occt`: OCCT's BRepMesh_IncrementalMesh on the same input, measured by our validator,
 // so triangles, time and certified error compare with our schemes in one command (docs/CAD.md).
 #include "commands.hpp"
+#include "progress.hpp"
 
 #include "sagitta/app/json.hpp"
+#include "sagitta/app/part.hpp"
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/mesh_check.hpp"
 #include "sagitta/occt/cad.hpp"
@@ -143,9 +145,54 @@ void print_peer_summary(const PeerCliOptions& o, const occt::PeerResult& r, cons
             << "); cracks " << topo.crack_edges << ", T-junctions " << topo.t_junctions << "\n";
 }
 
+// A CAD file: BRepMesh's mesh of the whole part, in PartMesh form, certified face by face exactly as
+// our own part meshes are (app::certify_part), with the part's solid checks (docs/CAD.md, "The peer
+// on whole parts").
+void run_peer_occt_part(const PeerCliOptions& o, const occt::PeerOptions& options) {
+  const Stopwatch total;
+  occt::BRepMeshOptions mesher;
+  mesher.deflection = o.deflection;
+  mesher.angle = o.angle;
+  mesher.relative = o.relative;
+  app::PartRun run;
+  run.part = occt::brepmesh_part_file(o.input, mesher);
+  {
+    const ProgressTicker progress("sagitta peer occt:", "certifying " + std::to_string(run.part.mesh.triangles.size()) +
+                                                            " triangles of " + std::to_string(run.part.faces.size()) + " faces");
+    run.validation = app::validate_part(run.part);
+    run.certificate = app::certify_part(run.part, options.certify);
+  }
+  nlohmann::json doc;
+  doc["input"] = o.input;
+  doc["mesher"] = "BRepMesh_IncrementalMesh (OCCT " + occt::occt_version() + ")";
+  doc["deflection"] = o.deflection;
+  doc["angle"] = o.angle;
+  doc["relative"] = o.relative;
+  doc["mesh_seconds"] = run.part.seconds;
+  doc["validate_seconds"] = run.certificate.seconds;
+  doc["route"] = "part";
+  doc.update(app::part_run_json(run));
+  const app::PartCertificate& c = run.certificate;
+  doc["hausdorff"] = peer_interval_json(c.distance.hausdorff);
+  doc["mesh_to_surface"] = peer_interval_json(c.distance.mesh_to_surface);
+  doc["surface_to_mesh"] = peer_interval_json(c.distance.surface_to_mesh);
+  if (!o.out.empty()) {
+    io::write_mesh(run.part.mesh, o.out);
+    doc["output"] = o.out;
+  }
+  doc["total_seconds"] = total.seconds();
+  if (!o.json.empty()) write_json(o.json, doc);
+  std::cout << "occt: deflection " << o.deflection << ", angle " << o.angle << ": " << run.part.mesh.triangles.size()
+            << " triangles in " << run.part.seconds << " s; " << app::part_certificate_headline(run)
+            << (c.all_certified ? "" : ", certified lower bound " + std::to_string(c.distance.hausdorff.lower))
+            << " (certified in " << c.seconds << " s); cracks " << run.validation.crack_edges << ", T-junctions "
+            << run.validation.t_junctions << "\n";
+}
+
 // Checks the options, meshes and certifies, checks the topology, then writes --out, --json and the summary.
 void run_peer_occt(const PeerCliOptions& o) {
   const occt::PeerOptions options = peer_options(o);
+  if (occt::is_cad_file(o.input)) return run_peer_occt_part(o, options);
   const Stopwatch total;
   nlohmann::json doc;
   const PeerMesh peer = mesh_with_occt(o, options, doc);

@@ -22,6 +22,12 @@
 #include <glm/geometric.hpp>
 
 #include <BRepAdaptor_Curve.hxx>
+#include <BRepBndLib.hxx>
+#include <BRepMesh_IncrementalMesh.hxx>
+#include <Bnd_Box.hxx>
+#include <Poly_PolygonOnTriangulation.hxx>
+#include <Poly_Triangulation.hxx>
+#include <TopLoc_Location.hxx>
 #include <BRepCheck_Analyzer.hxx>
 #include <BRepGProp.hxx>
 #include <BRepTools_WireExplorer.hxx>
@@ -52,6 +58,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -1388,6 +1395,219 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
   return out;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Another mesher's triangulation of the part (BRepMesh's: the Poly_Triangulation OCCT leaves on each
+// face, nodes with the face's (u, v), edges as Poly_PolygonOnTriangulation with their parameters), in
+// the same PartMesh form as our own, so that certify_part's loops route certifies it face by face.
+
+// Mesh vertices of the triangulations' nodes, merged by bit-identical position: BRepMesh gives a
+// shared edge's nodes the same 3D points on both faces, a seam's two copies and a pole's nodes too.
+class NodeIndex {
+ public:
+  explicit NodeIndex(PartBuilder& b) : b_(b) {}
+  uint32_t vertex(const Vec3& p) {
+    Key k;
+    std::memcpy(&k[0], &p.x, 8), std::memcpy(&k[1], &p.y, 8), std::memcpy(&k[2], &p.z, 8);
+    const auto it = index_.find(k);
+    if (it != index_.end()) return it->second;
+    const uint32_t v = b_.add_vertex(p);
+    index_.emplace(k, v);
+    return v;
+  }
+
+ private:
+  using Key = std::array<uint64_t, 3>;
+  PartBuilder& b_;
+  std::map<Key, uint32_t> index_;
+};
+
+// One face of the foreign mesh: its loops from the edges' polygons, then its triangles with (U, V)
+// corners (boundary nodes take their loop point's (U, V), the copy nearest the node's own; other
+// nodes map their (u, v) through face_to_uv). False (pf.reason) when the face cannot be taken.
+bool foreign_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, PartFace& pf, double part_size) {
+  TopLoc_Location loc;
+  const Handle(Poly_Triangulation) tri = BRep_Tool::Triangulation(g.face, loc);
+  if (tri.IsNull() || tri->NbTriangles() == 0) {
+    pf.reason = "the mesher left no triangles on the face";
+    return false;
+  }
+  if (!tri->HasUVNodes()) {
+    pf.reason = "the face's triangulation has no (u, v) nodes";
+    return false;
+  }
+  const gp_Trsf trsf = loc.Transformation();
+  std::vector<uint32_t> id(static_cast<size_t>(tri->NbNodes()) + 1);
+  for (int n = 1; n <= tri->NbNodes(); ++n) id[n] = nodes.vertex(to_vec(tri->Node(n).Transformed(trsf)));
+  // The face's edges as samples: the polygon's edge parameters and mesh vertices.
+  for (TopExp_Explorer it(g.face, TopAbs_EDGE); it.More(); it.Next()) {
+    const TopoDS_Edge edge = TopoDS::Edge(it.Current());
+    const int e = b.x.edges.FindIndex(edge) - 1;
+    if (e < 0) continue;
+    const Handle(Poly_PolygonOnTriangulation) poly = BRep_Tool::PolygonOnTriangulation(edge, tri, loc);
+    if (poly.IsNull() || !poly->HasParameters() || poly->NbNodes() < 2) {
+      pf.reason = "edge " + std::to_string(e + 1) + " has no polygon with parameters on the face's triangulation";
+      return false;
+    }
+    EdgeSamples s;
+    s.degenerated = BRep_Tool::Degenerated(edge);
+    s.free = faces_of_edge(b.x, edge).size() == 1 && !BRep_Tool::IsClosed(edge, g.face);
+    std::vector<std::pair<double, uint32_t>> samples;
+    for (int k = 1; k <= poly->NbNodes(); ++k) samples.push_back({poly->Parameter(k), id[poly->Node(k)]});
+    std::sort(samples.begin(), samples.end());
+    for (const auto& [t, v] : samples) s.t.push_back(t), s.vertex.push_back(v);
+    for (const uint32_t v : {s.vertex.front(), s.vertex.back()}) {
+      double tol = 1e-9 * part_size;
+      for (TopExp_Explorer ve(edge, TopAbs_VERTEX); ve.More(); ve.Next())
+        tol = std::max(tol, 10.0 * BRep_Tool::Tolerance(TopoDS::Vertex(ve.Current())));
+      b.vertex_tolerance[v] = std::max(b.vertex_tolerance[v], tol);
+    }
+    if (s.free) {
+      for (size_t k = 0; k + 1 < s.vertex.size(); ++k) b.out.boundary_edges.push_back({s.vertex[k], s.vertex[k + 1]});
+    }
+    b.edges[e] = std::move(s);
+  }
+  for (uint32_t v : id) {
+    if (b.vertex_tolerance[v] == 0.0) b.vertex_tolerance[v] = 1e-9 * part_size;
+  }
+  std::vector<LoopPoint> loop;
+  std::vector<std::array<uint32_t, 2>> segments;
+  std::vector<int> segment_edge;
+  std::vector<BoundaryChord> chords;
+  if (!face_loops(b, g, loop, segments, segment_edge, pf, nullptr, &chords)) return false;
+  pf.chords = std::move(chords);
+  pf.chord_metric = Vec2(g.su, g.sv);
+  std::unordered_map<uint32_t, std::vector<Vec2>> loop_uv;
+  for (const LoopPoint& p : loop) loop_uv[p.vertex].push_back(Vec2(p.q.x / g.su, p.q.y / g.sv));
+  // The loops were moved whole periods towards the patches' range (pcurve_shift), the nodes' (u, v)
+  // were not: the shift between them, found at the boundary nodes (the most frequent one), moves the
+  // interior nodes into the loops' frame.
+  const auto period_steps = [&](const Vec2& d) {
+    return std::make_pair(g.u_period > 0.0 ? std::round(d.x / g.u_period) : 0.0, g.v_period > 0.0 ? std::round(d.y / g.v_period) : 0.0);
+  };
+  const auto remove_periods = [&](const Vec2& d) {
+    const auto [ku, kv] = period_steps(d);
+    return Vec2(d.x - ku * g.u_period, d.y - kv * g.v_period);
+  };
+  std::vector<Vec2> node_uv(id.size());
+  for (int n = 1; n <= tri->NbNodes(); ++n) {
+    const gp_Pnt2d q = tri->UVNode(n);
+    node_uv[n] = face_to_uv(g, q.X(), q.Y());
+  }
+  std::map<std::pair<double, double>, int> shifts;
+  for (int n = 1; n <= tri->NbNodes(); ++n) {
+    const auto on_loop = loop_uv.find(id[n]);
+    if (on_loop == loop_uv.end()) continue;
+    double best = std::numeric_limits<double>::infinity();
+    std::pair<double, double> steps{0.0, 0.0};
+    for (const Vec2& c : on_loop->second) {
+      const double d = glm::length(remove_periods(c - node_uv[n]) * Vec2(g.su, g.sv));
+      if (d < best) best = d, steps = period_steps(node_uv[n] - c);
+    }
+    ++shifts[steps];
+  }
+  Vec2 shift(0.0);
+  int votes = 0;
+  for (const auto& [k, count] : shifts) {
+    if (count > votes) shift = Vec2(k.first * g.u_period, k.second * g.v_period), votes = count;
+  }
+  for (int n = 1; n <= tri->NbNodes(); ++n) {
+    node_uv[n] -= shift;
+    const auto on_loop = loop_uv.find(id[n]);
+    if (on_loop != loop_uv.end()) {
+      // The loop point of this vertex nearest the node (a seam's or a pole's copies lie apart).
+      const Vec2 own = node_uv[n];
+      double best = std::numeric_limits<double>::infinity();
+      for (const Vec2& c : on_loop->second) {
+        const double d = glm::length((c - own) * Vec2(g.su, g.sv));
+        if (d < best) best = d, node_uv[n] = c;
+      }
+    } else if (!b.surface_point_set[id[n]]) {
+      const Vec2 w = wrap_uv(g, node_uv[n]).first;
+      const auto [patch, st] = locate_patch(g, w.x, w.y);
+      b.out.mesh.surface_points[id[n]] = {static_cast<uint32_t>(pf.first_patch + patch), st.x, st.y};
+      b.surface_point_set[id[n]] = true;
+    }
+  }
+  const bool reversed = g.face.Orientation() == TopAbs_REVERSED;
+  for (int t = 1; t <= tri->NbTriangles(); ++t) {
+    int n[3];
+    tri->Triangle(t).Get(n[0], n[1], n[2]);
+    if (reversed) std::swap(n[1], n[2]);
+    emit_triangle(b, g, pf, {id[n[0]], id[n[1]], id[n[2]]}, {node_uv[n[0]], node_uv[n[1]], node_uv[n[2]]});
+  }
+  return true;
+}
+
+PartMesh brepmesh_shape(const TopoDS_Shape& shape, const std::string& name, const BRepMeshOptions& o) {
+  if (!(o.deflection > 0.0) || !std::isfinite(o.deflection)) throw InputError("--deflection must be a positive number");
+  if (!(o.angle > 0.0) || !std::isfinite(o.angle)) throw InputError("--angle must be a positive number (radians)");
+  PartMesh out;
+  out.name = name;
+  out.model.name = name;
+  const ShapeIndex x = index_shape(shape);
+  if (x.faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    BRepMesh_IncrementalMesh mesher(shape, o.deflection, o.relative, o.angle, o.parallel ? Standard_True : Standard_False);
+  } catch (const Standard_Failure& e) {
+    throw InputError(name + ": BRepMesh failed (" + std::string(e.GetMessageString()) + ")");
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::vector<FaceGeometry> geometry;
+  for (int f = 0; f < x.faces.Extent(); ++f) {
+    budget::check("converting the part's faces");
+    geometry.push_back(face_geometry(x, f, name, CadOptions{}));
+  }
+  out.solids = solid_facts(x, o.solid_facts);
+  const PartOptions options;
+  const std::vector<std::vector<double>> extra(x.edges.Extent());
+  const std::vector<EdgePlan> plans;
+  PartBuilder b{options, x, geometry, out, {}, {}, {}, extra, {}, plans};
+  b.edges.resize(x.edges.Extent());
+  Bnd_Box box;
+  BRepBndLib::Add(shape, box);
+  const double part_size = box.IsVoid() ? 1.0 : std::sqrt(box.SquareExtent());
+  NodeIndex nodes(b);
+  for (FaceGeometry& g : geometry) {
+    budget::check("reading the mesher's faces");
+    PartFace pf;
+    pf.face_index = g.report.face_index;
+    pf.name = g.report.name;
+    pf.surface_type = g.report.surface_type;
+    pf.trimmed = g.report.status == "trimmed";
+    pf.solid = g.solid;
+    pf.status = "skipped";
+    if (g.patches.empty()) {
+      pf.reason = g.report.reason;
+    } else {
+      pf.first_patch = static_cast<int>(out.model.patches.size());
+      pf.patch_count = static_cast<int>(g.patches.size());
+      pf.u_breaks = g.report.u_breaks, pf.v_breaks = g.report.v_breaks;
+      pf.reversed = g.reversed;
+      pf.u_period = g.u_period, pf.v_period = g.v_period;
+      out.model.patches.insert(out.model.patches.end(), g.patches.begin(), g.patches.end());
+      try {
+        if (foreign_face(b, nodes, g, pf, part_size)) pf.status = "tessellated";
+      } catch (const Standard_Failure& e) {
+        pf.reason = std::string("OCCT failed on the face (") + e.GetMessageString() + ")";
+      }
+    }
+    if (pf.status == "skipped" && pf.reason.empty()) pf.reason = "no triangles";
+    out.faces_tessellated += pf.status == "tessellated";
+    out.faces_skipped += pf.status == "skipped";
+    out.faces_trimmed += pf.trimmed;
+    if (pf.solid >= 0) {
+      ++out.solids[pf.solid].faces;
+      out.solids[pf.solid].triangles += pf.triangles;
+    }
+    out.faces.push_back(pf);
+  }
+  out.edges = x.edges.Extent();
+  std::sort(out.boundary_edges.begin(), out.boundary_edges.end());
+  out.boundary_edges.erase(std::unique(out.boundary_edges.begin(), out.boundary_edges.end()), out.boundary_edges.end());
+  return out;
+}
+
 }  // namespace
 
 PartMesh mesh_part_shape(const TopoDS_Shape& shape, const std::string& name, const PartOptions& options) {
@@ -1402,6 +1622,14 @@ PartMesh mesh_part_file(const std::string& path, const PartOptions& options) {
 PartMesh mesh_part_brep_string(const std::string& brep_text, const std::string& name, const PartOptions& options) {
   check_scheme(options, name);
   return mesh_shape(read_brep_shape(brep_text, name), name, options);
+}
+
+PartMesh brepmesh_part_file(const std::string& path, const BRepMeshOptions& options) {
+  return brepmesh_shape(read_cad_shape(path), path, options);
+}
+
+PartMesh brepmesh_part_brep_string(const std::string& brep_text, const std::string& name, const BRepMeshOptions& options) {
+  return brepmesh_shape(read_brep_shape(brep_text, name), name, options);
 }
 
 }  // namespace sagitta::occt

@@ -129,4 +129,21 @@ PartMesh mesh_part_file(const std::string& path, const PartOptions& options);
 // The same for an OCCT BREP text (FreeCAD: Part.Shape.exportBrepToString()); `name` names it in messages.
 PartMesh mesh_part_brep_string(const std::string& brep_text, const std::string& name, const PartOptions& options);
 
+// Another mesher's mesh of the part, in the same form: OCCT's BRepMesh_IncrementalMesh with these
+// options, each face's triangulation with its nodes' (U, V) (face_to_uv of the node's (u, v); boundary
+// nodes at their loop points) and its loops' chords from the edges' polygons and p-curves, so that
+// certify_part certifies it face by face exactly as it certifies our own (docs/CAD.md, "The peer on
+// whole parts"). Vertices are merged by bit-identical position. PartMesh::seconds is BRepMesh's time
+// alone. Faces that cannot be taken (no triangulation, no edge parameters, no Bézier form) are
+// listed as skipped with the reason.
+struct BRepMeshOptions {
+  double deflection = 1e-3;  // linear deflection (model units, or relative to each edge's size)
+  double angle = 0.5;        // angular deflection (radians)
+  bool relative = false;
+  bool parallel = true;
+  bool solid_facts = true;   // as PartOptions::solid_facts
+};
+PartMesh brepmesh_part_file(const std::string& path, const BRepMeshOptions& options);
+PartMesh brepmesh_part_brep_string(const std::string& brep_text, const std::string& name, const BRepMeshOptions& options);
+
 }  // namespace sagitta::occt
