@@ -107,6 +107,47 @@ bool domain_is_rectangle(const TopoDS_Face& face, double u0, double u1, double v
   return true;
 }
 
+// The same polynomial (rational) patch over [lo, hi] of its u (axis 0) or v (axis 1) parameter, lo <= 0,
+// hi >= 1: a face whose trimming curves run past the end of its B-spline surface's knot range lies on
+// the surface's extrapolation there (OCCT evaluates the first / last span's polynomial beyond the
+// range), so the end patches are extended to cover it. de Casteljau in homogeneous long double at hi
+// (keep [0, hi]), then at lo / hi (keep [lo / hi, 1]): exact for any parameter. False when a weight
+// of the extended patch is not positive.
+bool extend_patch(BezierPatch& p, int axis, double lo, double hi) {
+  const int n = axis == 0 ? p.degree_u : p.degree_v, lines = axis == 0 ? p.cols() : p.rows();
+  const bool rational = p.rational();
+  for (int line = 0; line < lines; ++line) {
+    std::vector<std::array<long double, 4>> h(static_cast<size_t>(n) + 1);
+    const auto index = [&](int k) { return axis == 0 ? k * p.cols() + line : line * p.cols() + k; };
+    for (int k = 0; k <= n; ++k) {
+      const long double w = rational ? p.weights[static_cast<size_t>(index(k))] : 1.0L;
+      const Vec3& x = p.points[static_cast<size_t>(index(k))];
+      h[static_cast<size_t>(k)] = {w * x.x, w * x.y, w * x.z, w};
+    }
+    const auto split = [&](long double t, bool keep_left) {
+      std::vector<std::array<long double, 4>> work = h, left(h.size()), right(h.size());
+      for (int level = 0; level <= n; ++level) {
+        left[static_cast<size_t>(level)] = work[0];
+        right[static_cast<size_t>(n - level)] = work[static_cast<size_t>(n - level)];
+        for (int k = 0; k + 1 <= n - level; ++k) {
+          for (int c = 0; c < 4; ++c) work[k][c] = (1.0L - t) * work[k][c] + t * work[k + 1][c];
+        }
+      }
+      h = keep_left ? left : right;
+    };
+    if (hi != 1.0) split(hi, true);
+    if (lo != 0.0) split(static_cast<long double>(lo) / hi, false);
+    for (int k = 0; k <= n; ++k) {
+      const auto& q = h[static_cast<size_t>(k)];
+      if (!(q[3] > 0.0L) || (!rational && std::abs(q[3] - 1.0L) > 1e-12L)) return false;
+      p.points[static_cast<size_t>(index(k))] = Vec3(static_cast<double>(q[0] / q[3]), static_cast<double>(q[1] / q[3]),
+                                                     static_cast<double>(q[2] / q[3]));
+      if (rational) p.weights[static_cast<size_t>(index(k))] = static_cast<double>(q[3]);
+    }
+  }
+  return true;
+}
+
 // The face's surface over [u0, u1] x [v0, v1] as Bézier patches (exact), or a reason why not.
 // u_breaks / v_breaks receive the patch grid's lines in the converted surface's parameters (these
 // equal the face's (u, v) only where the conversion keeps the parametrisation: B-splines, Béziers,
@@ -124,6 +165,7 @@ std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1,
     return {};
   }
   Handle(Geom_BSplineSurface) bs;
+  bool analytic_surface = false;
   if (s->IsKind(STANDARD_TYPE(Geom_BezierSurface))) {
     const Handle(Geom_BezierSurface) b = Handle(Geom_BezierSurface)::DownCast(s);
     if (b->UDegree() > kMaxDegree || b->VDegree() > kMaxDegree) {
@@ -142,6 +184,7 @@ std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1,
     reason = "offset surface: no exact rational form";
     return {};
   } else {
+    analytic_surface = true;
     // Elementary surfaces, revolutions and extrusions of conics or splines: OCCT's conversion is exact
     // (rational B-spline, parametrised by tan(theta/2) for the circular directions). The face's UV
     // bounds may exceed a period or the surface's own bounds by a tolerance; clamp them first.
@@ -170,10 +213,39 @@ std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1,
     reason = "degree above 25";
     return {};
   }
+  const bool u_periodic = bs->IsUPeriodic(), v_periodic = bs->IsVPeriodic();
+  // A face of a periodic B-spline may run across the surface's seam (v in [0.70, 1.08] of a surface
+  // periodic over [0, 1]): the surface's origin moves to the last knot at or below the face's start
+  // (SetUOrigin / SetVOrigin: the same surface, its period starting there), the face's range shifted
+  // by whole periods into it, and the breaks shifted back afterwards, so that they are in the face's
+  // own (u, v).
+  double u_shift = 0.0, v_shift = 0.0;
+  const auto reorigin = [&](bool u_dir, double& lo, double& hi) {
+    double first, last, c0, c1;
+    bs->Bounds(first, last, c0, c1);
+    if (!u_dir) first = c0, last = c1;
+    const double period = last - first;
+    if (lo >= first && hi <= last) return 0.0;
+    if (hi - lo > period * (1.0 + 1e-9)) return 0.0;  // clamped below
+    const double shift = std::floor((lo - first) / period) * period;
+    lo -= shift, hi -= shift;
+    const int k0 = u_dir ? bs->FirstUKnotIndex() : bs->FirstVKnotIndex();
+    const int k1 = u_dir ? bs->LastUKnotIndex() : bs->LastVKnotIndex();
+    int origin = k0;
+    for (int k = k0; k < k1; ++k) {
+      if ((u_dir ? bs->UKnot(k) : bs->VKnot(k)) <= lo) origin = k;
+    }
+    if (u_dir) bs->SetUOrigin(origin);
+    else bs->SetVOrigin(origin);
+    return shift;
+  };
+  if (u_periodic) u_shift = reorigin(true, u0, u1);
+  if (v_periodic) v_shift = reorigin(false, v0, v1);
   if (bs->IsUPeriodic()) bs->SetUNotPeriodic();
   if (bs->IsVPeriodic()) bs->SetVNotPeriodic();
   double a, b, c, d;
   bs->Bounds(a, b, c, d);
+  const double face_u0 = u0, face_u1 = u1, face_v0 = v0, face_v1 = v1;
   u0 = std::max(u0, a), u1 = std::min(u1, b), v0 = std::max(v0, c), v1 = std::min(v1, d);
   const bool whole = u0 == a && u1 == b && v0 == c && v1 == d;
   GeomConvert_BSplineSurfaceToBezierSurface split =
@@ -186,12 +258,41 @@ std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1,
   split.VKnots(vk);
   u_breaks.clear();
   v_breaks.clear();
-  for (int i = uk.Lower(); i <= uk.Upper(); ++i) u_breaks.push_back(uk(i));
-  for (int j = vk.Lower(); j <= vk.Upper(); ++j) v_breaks.push_back(vk(j));
+  for (int i = uk.Lower(); i <= uk.Upper(); ++i) u_breaks.push_back(uk(i) + u_shift);
+  for (int j = vk.Lower(); j <= vk.Upper(); ++j) v_breaks.push_back(vk(j) + v_shift);
   if (converted) *converted = bs;
   std::vector<BezierPatch> out;
   for (int i = patches.LowerRow(); i <= patches.UpperRow(); ++i) {
     for (int j = patches.LowerCol(); j <= patches.UpperCol(); ++j) out.push_back(to_patch(patches(i, j)));
+  }
+  // The face's trimming curves past the surface's range in a direction that is not periodic: the end
+  // patches extended onto the surface's extrapolation (extend_patch), at most one span's length.
+  if (!analytic_surface) {
+    const int nu = static_cast<int>(u_breaks.size()) - 1, nv = static_cast<int>(v_breaks.size()) - 1;
+    const auto extend = [&](int axis, bool at_start, double to) {
+      std::vector<double>& breaks = axis == 0 ? u_breaks : v_breaks;
+      const int span = at_start ? 0 : static_cast<int>(breaks.size()) - 2;
+      const double a0 = breaks[span], a1 = breaks[span + 1];
+      const double x = (to - a0) / (a1 - a0);
+      if (!(x >= -1.0 && x <= 2.0)) {
+        reason = "the face's trimming curves run past its surface's parameter range by more than a knot span";
+        return false;
+      }
+      const int count = axis == 0 ? nv : nu;
+      for (int k = 0; k < count; ++k) {
+        BezierPatch& p = out[static_cast<size_t>(axis == 0 ? span * nv + k : k * nv + span)];
+        if (!extend_patch(p, axis, at_start ? x : 0.0, at_start ? 1.0 : x)) {
+          reason = "the surface's extrapolation past its parameter range, where the face's trimming curves run, has a weight that is not positive";
+          return false;
+        }
+      }
+      (at_start ? breaks.front() : breaks.back()) = to;
+      return true;
+    };
+    if (!u_periodic && face_u0 < a && !extend(0, true, face_u0)) return {};
+    if (!u_periodic && face_u1 > b && !extend(0, false, face_u1)) return {};
+    if (!v_periodic && face_v0 < c && !extend(1, true, face_v0)) return {};
+    if (!v_periodic && face_v1 > d && !extend(1, false, face_v1)) return {};
   }
   return out;
 }
