@@ -596,6 +596,14 @@ PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& o
     } catch (const InputError& e) {
       fc.reason = std::string("not certified: ") + e.what();
     }
+    if (part.welded > 0.0) {
+      // Measured on the welded mesh; the mesh as read lies within `welded` of it.
+      for (DistanceInterval* i : {&fc.mesh_to_surface, &fc.surface_to_mesh, &fc.hausdorff}) {
+        i->lower = std::max(0.0, i->lower - part.welded);
+        i->upper += part.welded;
+      }
+      for (const uint32_t t : face_triangles[k]) cert.triangle_upper[t] += part.welded;
+    }
     if (fc.certified) fc.upper = fc.hausdorff.upper;
     fc.seconds = face_clock.seconds();
   });

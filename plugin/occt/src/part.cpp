@@ -30,7 +30,12 @@
 #include <TopLoc_Location.hxx>
 #include <BRepCheck_Analyzer.hxx>
 #include <BRepGProp.hxx>
+#include <BRepTools.hxx>
 #include <BRepTools_WireExplorer.hxx>
+#include <BRepTopAdaptor_FClass2d.hxx>
+#include <GeomAPI_ProjectPointOnCurve.hxx>
+#include <GeomAPI_ProjectPointOnSurf.hxx>
+#include <Geom_Curve.hxx>
 #include <BRep_Tool.hxx>
 #include <GProp_GProps.hxx>
 #include <Geom2d_Curve.hxx>
@@ -59,6 +64,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
+#include <tuple>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -1421,10 +1428,109 @@ class NodeIndex {
   std::map<Key, uint32_t> index_;
 };
 
-// One face of the foreign mesh: its loops from the edges' polygons, then its triangles with (U, V)
-// corners (boundary nodes take their loop point's (U, V), the copy nearest the node's own; other
-// nodes map their (u, v) through face_to_uv). False (pf.reason) when the face cannot be taken.
-bool foreign_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, PartFace& pf, double part_size) {
+// One face of a foreign mesh, once b.edges holds the samples of the face's edges (edge parameters
+// and mesh vertices): its loops, then its triangles with (U, V) corners. raw_uv are the corners' (u, v)
+// in the face's own parameters (OCCT's, before face_to_uv). The loops were moved whole periods towards
+// the patches' range (pcurve_shift), the corners were not: the shift between them, the most frequent
+// at the corners on the loops, moves every corner into the loops' frame; each triangle's corners are
+// then (`unwrap`: corners projected into one period, not continuous across a seam) unwrapped whole
+// periods towards a corner off the loops (or on them but not on a seam or pole), and corners on the loops take
+// the nearest of their vertex's loop points (a seam's or a pole's copies lie apart). False (pf.reason)
+// when the face cannot be taken.
+bool take_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, const std::vector<std::array<uint32_t, 3>>& tris,
+               const std::vector<std::array<Vec2, 3>>& raw_uv, bool unwrap) {
+  std::vector<LoopPoint> loop;
+  std::vector<std::array<uint32_t, 2>> segments;
+  std::vector<int> segment_edge;
+  std::vector<BoundaryChord> chords;
+  if (!face_loops(b, g, loop, segments, segment_edge, pf, nullptr, &chords)) return false;
+  pf.chords = std::move(chords);
+  pf.chord_metric = Vec2(g.su, g.sv);
+  std::unordered_map<uint32_t, std::vector<Vec2>> loop_uv;
+  for (const LoopPoint& p : loop) loop_uv[p.vertex].push_back(Vec2(p.q.x / g.su, p.q.y / g.sv));
+  const auto period_steps = [&](const Vec2& d) {
+    return std::make_pair(g.u_period > 0.0 ? std::round(d.x / g.u_period) : 0.0, g.v_period > 0.0 ? std::round(d.y / g.v_period) : 0.0);
+  };
+  const auto remove_periods = [&](const Vec2& d) {
+    const auto [ku, kv] = period_steps(d);
+    return Vec2(d.x - ku * g.u_period, d.y - kv * g.v_period);
+  };
+  // face_to_uv of each distinct (vertex, raw (u, v)): a Gauss-Newton solve on analytic faces.
+  std::map<std::tuple<uint32_t, double, double>, Vec2> mapped;
+  std::vector<std::array<Vec2, 3>> uv(tris.size());
+  std::map<std::pair<double, double>, int> shifts;
+  for (size_t t = 0; t < tris.size(); ++t) {
+    for (int c = 0; c < 3; ++c) {
+      const Vec2 r = raw_uv[t][c];
+      auto [it, fresh] = mapped.try_emplace({tris[t][c], r.x, r.y}, Vec2(0.0));
+      if (fresh) {
+        it->second = face_to_uv(g, r.x, r.y);
+        const auto on_loop = loop_uv.find(tris[t][c]);
+        if (on_loop != loop_uv.end()) {
+          double best = std::numeric_limits<double>::infinity();
+          std::pair<double, double> steps{0.0, 0.0};
+          for (const Vec2& q : on_loop->second) {
+            const double d = glm::length(remove_periods(q - it->second) * Vec2(g.su, g.sv));
+            if (d < best) best = d, steps = period_steps(it->second - q);
+          }
+          ++shifts[steps];
+        }
+      }
+      uv[t][c] = it->second;
+    }
+  }
+  Vec2 shift(0.0);
+  int votes = 0;
+  for (const auto& [k, count] : shifts) {
+    if (count > votes) shift = Vec2(k.first * g.u_period, k.second * g.v_period), votes = count;
+  }
+  for (size_t t = 0; t < tris.size(); ++t) {
+    // The reference corner: one off the loops, else one with a single loop point (not on a seam or
+    // a pole, whose copies lie apart), else the first.
+    int reference = 0, rank = 0;
+    for (int c = 0; c < 3; ++c) {
+      const auto on_loop = loop_uv.find(tris[t][c]);
+      const int r = on_loop == loop_uv.end() ? 2 : on_loop->second.size() == 1 ? 1 : 0;
+      if (r > rank) reference = c, rank = r;
+    }
+    const auto single = loop_uv.find(tris[t][reference]);
+    const Vec2 ref = rank == 1 ? single->second.front() : uv[t][reference] - shift;
+    for (int c = 0; c < 3; ++c) {
+      Vec2 w = uv[t][c] - shift;
+      if (unwrap) w = ref + remove_periods(w - ref);
+      const auto on_loop = loop_uv.find(tris[t][c]);
+      if (on_loop != loop_uv.end()) {
+        double best = std::numeric_limits<double>::infinity();
+        const Vec2 own = w;
+        for (const Vec2& q : on_loop->second) {
+          const double d = glm::length((q - own) * Vec2(g.su, g.sv));
+          if (d < best) best = d, w = q;
+        }
+      } else if (!b.surface_point_set[tris[t][c]]) {
+        const Vec2 inside = wrap_uv(g, w).first;
+        const auto [patch, st] = locate_patch(g, inside.x, inside.y);
+        b.out.mesh.surface_points[tris[t][c]] = {static_cast<uint32_t>(pf.first_patch + patch), st.x, st.y};
+        b.surface_point_set[tris[t][c]] = true;
+      }
+      uv[t][c] = w;
+    }
+    emit_triangle(b, g, pf, tris[t], uv[t]);
+  }
+  return true;
+}
+
+// The vertex tolerance of an edge's end vertices: 10x the B-rep vertices' tolerance, at least 1e-9 of
+// the part (how far apart two loop points of one vertex may lie and still be that vertex).
+void set_end_tolerance(PartBuilder& b, const TopoDS_Edge& edge, const EdgeSamples& s, double part_size) {
+  double tol = 1e-9 * part_size;
+  for (TopExp_Explorer ve(edge, TopAbs_VERTEX); ve.More(); ve.Next())
+    tol = std::max(tol, 10.0 * BRep_Tool::Tolerance(TopoDS::Vertex(ve.Current())));
+  for (const uint32_t v : {s.vertex.front(), s.vertex.back()}) b.vertex_tolerance[v] = std::max(b.vertex_tolerance[v], tol);
+}
+
+// One face of BRepMesh's mesh: the edges' samples from their Poly_PolygonOnTriangulation on the face's
+// triangulation, the nodes' (u, v) from the triangulation.
+bool brepmesh_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, PartFace& pf, double part_size) {
   TopLoc_Location loc;
   const Handle(Poly_Triangulation) tri = BRep_Tool::Triangulation(g.face, loc);
   if (tri.IsNull() || tri->NbTriangles() == 0) {
@@ -1438,7 +1544,6 @@ bool foreign_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, PartF
   const gp_Trsf trsf = loc.Transformation();
   std::vector<uint32_t> id(static_cast<size_t>(tri->NbNodes()) + 1);
   for (int n = 1; n <= tri->NbNodes(); ++n) id[n] = nodes.vertex(to_vec(tri->Node(n).Transformed(trsf)));
-  // The face's edges as samples: the polygon's edge parameters and mesh vertices.
   for (TopExp_Explorer it(g.face, TopAbs_EDGE); it.More(); it.Next()) {
     const TopoDS_Edge edge = TopoDS::Edge(it.Current());
     const int e = b.x.edges.FindIndex(edge) - 1;
@@ -1455,12 +1560,7 @@ bool foreign_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, PartF
     for (int k = 1; k <= poly->NbNodes(); ++k) samples.push_back({poly->Parameter(k), id[poly->Node(k)]});
     std::sort(samples.begin(), samples.end());
     for (const auto& [t, v] : samples) s.t.push_back(t), s.vertex.push_back(v);
-    for (const uint32_t v : {s.vertex.front(), s.vertex.back()}) {
-      double tol = 1e-9 * part_size;
-      for (TopExp_Explorer ve(edge, TopAbs_VERTEX); ve.More(); ve.Next())
-        tol = std::max(tol, 10.0 * BRep_Tool::Tolerance(TopoDS::Vertex(ve.Current())));
-      b.vertex_tolerance[v] = std::max(b.vertex_tolerance[v], tol);
-    }
+    set_end_tolerance(b, edge, s, part_size);
     if (s.free) {
       for (size_t k = 0; k + 1 < s.vertex.size(); ++k) b.out.boundary_edges.push_back({s.vertex[k], s.vertex[k + 1]});
     }
@@ -1469,96 +1569,37 @@ bool foreign_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, PartF
   for (uint32_t v : id) {
     if (b.vertex_tolerance[v] == 0.0) b.vertex_tolerance[v] = 1e-9 * part_size;
   }
-  std::vector<LoopPoint> loop;
-  std::vector<std::array<uint32_t, 2>> segments;
-  std::vector<int> segment_edge;
-  std::vector<BoundaryChord> chords;
-  if (!face_loops(b, g, loop, segments, segment_edge, pf, nullptr, &chords)) return false;
-  pf.chords = std::move(chords);
-  pf.chord_metric = Vec2(g.su, g.sv);
-  std::unordered_map<uint32_t, std::vector<Vec2>> loop_uv;
-  for (const LoopPoint& p : loop) loop_uv[p.vertex].push_back(Vec2(p.q.x / g.su, p.q.y / g.sv));
-  // The loops were moved whole periods towards the patches' range (pcurve_shift), the nodes' (u, v)
-  // were not: the shift between them, found at the boundary nodes (the most frequent one), moves the
-  // interior nodes into the loops' frame.
-  const auto period_steps = [&](const Vec2& d) {
-    return std::make_pair(g.u_period > 0.0 ? std::round(d.x / g.u_period) : 0.0, g.v_period > 0.0 ? std::round(d.y / g.v_period) : 0.0);
-  };
-  const auto remove_periods = [&](const Vec2& d) {
-    const auto [ku, kv] = period_steps(d);
-    return Vec2(d.x - ku * g.u_period, d.y - kv * g.v_period);
-  };
-  std::vector<Vec2> node_uv(id.size());
-  for (int n = 1; n <= tri->NbNodes(); ++n) {
-    const gp_Pnt2d q = tri->UVNode(n);
-    node_uv[n] = face_to_uv(g, q.X(), q.Y());
-  }
-  std::map<std::pair<double, double>, int> shifts;
-  for (int n = 1; n <= tri->NbNodes(); ++n) {
-    const auto on_loop = loop_uv.find(id[n]);
-    if (on_loop == loop_uv.end()) continue;
-    double best = std::numeric_limits<double>::infinity();
-    std::pair<double, double> steps{0.0, 0.0};
-    for (const Vec2& c : on_loop->second) {
-      const double d = glm::length(remove_periods(c - node_uv[n]) * Vec2(g.su, g.sv));
-      if (d < best) best = d, steps = period_steps(node_uv[n] - c);
-    }
-    ++shifts[steps];
-  }
-  Vec2 shift(0.0);
-  int votes = 0;
-  for (const auto& [k, count] : shifts) {
-    if (count > votes) shift = Vec2(k.first * g.u_period, k.second * g.v_period), votes = count;
-  }
-  for (int n = 1; n <= tri->NbNodes(); ++n) {
-    node_uv[n] -= shift;
-    const auto on_loop = loop_uv.find(id[n]);
-    if (on_loop != loop_uv.end()) {
-      // The loop point of this vertex nearest the node (a seam's or a pole's copies lie apart).
-      const Vec2 own = node_uv[n];
-      double best = std::numeric_limits<double>::infinity();
-      for (const Vec2& c : on_loop->second) {
-        const double d = glm::length((c - own) * Vec2(g.su, g.sv));
-        if (d < best) best = d, node_uv[n] = c;
-      }
-    } else if (!b.surface_point_set[id[n]]) {
-      const Vec2 w = wrap_uv(g, node_uv[n]).first;
-      const auto [patch, st] = locate_patch(g, w.x, w.y);
-      b.out.mesh.surface_points[id[n]] = {static_cast<uint32_t>(pf.first_patch + patch), st.x, st.y};
-      b.surface_point_set[id[n]] = true;
-    }
-  }
+  std::vector<std::array<uint32_t, 3>> tris;
+  std::vector<std::array<Vec2, 3>> raw;
   const bool reversed = g.face.Orientation() == TopAbs_REVERSED;
   for (int t = 1; t <= tri->NbTriangles(); ++t) {
     int n[3];
     tri->Triangle(t).Get(n[0], n[1], n[2]);
     if (reversed) std::swap(n[1], n[2]);
-    emit_triangle(b, g, pf, {id[n[0]], id[n[1]], id[n[2]]}, {node_uv[n[0]], node_uv[n[1]], node_uv[n[2]]});
+    std::array<Vec2, 3> q;
+    for (int c = 0; c < 3; ++c) q[c] = Vec2(tri->UVNode(n[c]).X(), tri->UVNode(n[c]).Y());
+    tris.push_back({id[n[0]], id[n[1]], id[n[2]]});
+    raw.push_back(q);
   }
-  return true;
+  return take_face(b, g, pf, tris, raw, false);
 }
 
-PartMesh brepmesh_shape(const TopoDS_Shape& shape, const std::string& name, const BRepMeshOptions& o) {
-  if (!(o.deflection > 0.0) || !std::isfinite(o.deflection)) throw InputError("--deflection must be a positive number");
-  if (!(o.angle > 0.0) || !std::isfinite(o.angle)) throw InputError("--angle must be a positive number (radians)");
+// The shape's faces taken from a foreign mesh one by one: `take` fills a face's triangles (false and
+// pf.reason when it cannot). Faces with no Bézier form are listed as skipped with their reason.
+PartMesh foreign_part(const TopoDS_Shape& shape, const std::string& name, bool occt_solid_facts,
+                      const std::function<void(PartBuilder&, double)>& prepare,
+                      const std::function<bool(PartBuilder&, const FaceGeometry&, PartFace&, double)>& take) {
   PartMesh out;
   out.name = name;
   out.model.name = name;
   const ShapeIndex x = index_shape(shape);
   if (x.faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
-  const auto start = std::chrono::steady_clock::now();
-  try {
-    BRepMesh_IncrementalMesh mesher(shape, o.deflection, o.relative, o.angle, o.parallel ? Standard_True : Standard_False);
-  } catch (const Standard_Failure& e) {
-    throw InputError(name + ": BRepMesh failed (" + std::string(e.GetMessageString()) + ")");
-  }
-  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::vector<FaceGeometry> geometry;
   for (int f = 0; f < x.faces.Extent(); ++f) {
     budget::check("converting the part's faces");
     geometry.push_back(face_geometry(x, f, name, CadOptions{}));
   }
-  out.solids = solid_facts(x, o.solid_facts);
+  out.solids = solid_facts(x, occt_solid_facts);
   const PartOptions options;
   const std::vector<std::vector<double>> extra(x.edges.Extent());
   const std::vector<EdgePlan> plans;
@@ -1567,9 +1608,9 @@ PartMesh brepmesh_shape(const TopoDS_Shape& shape, const std::string& name, cons
   Bnd_Box box;
   BRepBndLib::Add(shape, box);
   const double part_size = box.IsVoid() ? 1.0 : std::sqrt(box.SquareExtent());
-  NodeIndex nodes(b);
+  prepare(b, part_size);
   for (FaceGeometry& g : geometry) {
-    budget::check("reading the mesher's faces");
+    budget::check("reading the mesh's faces");
     PartFace pf;
     pf.face_index = g.report.face_index;
     pf.name = g.report.name;
@@ -1587,7 +1628,7 @@ PartMesh brepmesh_shape(const TopoDS_Shape& shape, const std::string& name, cons
       pf.u_period = g.u_period, pf.v_period = g.v_period;
       out.model.patches.insert(out.model.patches.end(), g.patches.begin(), g.patches.end());
       try {
-        if (foreign_face(b, nodes, g, pf, part_size)) pf.status = "tessellated";
+        if (take(b, g, pf, part_size)) pf.status = "tessellated";
       } catch (const Standard_Failure& e) {
         pf.reason = std::string("OCCT failed on the face (") + e.GetMessageString() + ")";
       }
@@ -1605,6 +1646,326 @@ PartMesh brepmesh_shape(const TopoDS_Shape& shape, const std::string& name, cons
   out.edges = x.edges.Extent();
   std::sort(out.boundary_edges.begin(), out.boundary_edges.end());
   out.boundary_edges.erase(std::unique(out.boundary_edges.begin(), out.boundary_edges.end()), out.boundary_edges.end());
+  return out;
+}
+
+PartMesh brepmesh_shape(const TopoDS_Shape& shape, const std::string& name, const BRepMeshOptions& o) {
+  if (!(o.deflection > 0.0) || !std::isfinite(o.deflection)) throw InputError("--deflection must be a positive number");
+  if (!(o.angle > 0.0) || !std::isfinite(o.angle)) throw InputError("--angle must be a positive number (radians)");
+  BRepTools::Clean(shape);  // a BREP file may carry a triangulation of its own
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    BRepMesh_IncrementalMesh mesher(shape, o.deflection, o.relative, o.angle, o.parallel ? Standard_True : Standard_False);
+  } catch (const Standard_Failure& e) {
+    throw InputError(name + ": BRepMesh failed (" + std::string(e.GetMessageString()) + ")");
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::unique_ptr<NodeIndex> nodes;
+  PartMesh out = foreign_part(
+      shape, name, o.solid_facts, [&](PartBuilder& b, double) { nodes = std::make_unique<NodeIndex>(b); },
+      [&](PartBuilder& b, const FaceGeometry& g, PartFace& pf, double size) { return brepmesh_face(b, *nodes, g, pf, size); });
+  out.seconds = seconds;
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Any mesh of the part (an STL, OBJ or PLY with no (u, v) and no face ids): each vertex is found on
+// the B-rep's edges (within tolerance of the 3D curve: its edge parameter) and faces (projected on the
+// surface, classified inside the face: its (u, v)); a triangle belongs to the face all three corners
+// lie on. Then each face goes through take_face like BRepMesh's.
+
+// How close a mesh vertex must be to a curve or surface to lie on it: 1e-6 of the part's size (a
+// float STL's rounding is about 1e-7 of its coordinates), or twice the B-rep entity's tolerance.
+double on_tolerance(double part_size, double entity_tolerance) { return std::max(1e-6 * part_size, 2.0 * entity_tolerance); }
+
+struct VertexOnFace {
+  int face;
+  Vec2 uv;  // the face's own (u, v)
+};
+
+struct MeshOnShape {
+  std::vector<Vec3> position;                        // per mesh vertex (merged)
+  std::vector<uint32_t> by_x;                        // vertices sorted by x
+  std::vector<std::vector<VertexOnFace>> on_faces;   // per vertex
+  std::vector<std::vector<std::array<uint32_t, 3>>> face_triangles;  // per face
+  uint64_t unassigned = 0;  // triangles whose corners share no face
+
+  // Vertices inside the box [lo, hi].
+  template <typename F>
+  void in_box(const Vec3& lo, const Vec3& hi, F&& f) const {
+    auto it = std::lower_bound(by_x.begin(), by_x.end(), lo.x, [&](uint32_t v, double x) { return position[v].x < x; });
+    for (; it != by_x.end() && position[*it].x <= hi.x; ++it) {
+      const Vec3& p = position[*it];
+      if (p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z) f(*it);
+    }
+  }
+};
+
+std::pair<Vec3, Vec3> box_corners(const Bnd_Box& box) {
+  double x0, y0, z0, x1, y1, z1;
+  box.Get(x0, y0, z0, x1, y1, z1);
+  return {Vec3(x0, y0, z0), Vec3(x1, y1, z1)};
+}
+
+// The edges' samples (b.edges) from the mesh vertices that lie on them.
+void edges_from_vertices(PartBuilder& b, const MeshOnShape& m, double part_size) {
+  for (int e = 0; e < b.x.edges.Extent(); ++e) {
+    budget::check("finding the mesh's vertices on the part's edges");
+    const TopoDS_Edge edge = TopoDS::Edge(b.x.edges(e + 1).Oriented(TopAbs_FORWARD));
+    EdgeSamples& s = b.edges[e];
+    s.degenerated = BRep_Tool::Degenerated(edge);
+    const std::vector<int> faces = faces_of_edge(b.x, edge);
+    s.free = faces.size() == 1 && !BRep_Tool::IsClosed(edge, TopoDS::Face(b.x.faces(faces.front() + 1)));
+    if (s.degenerated) {
+      // A pole: its one mesh vertex, at both ends (take_mesh_face adds the parameters its fan needs).
+      TopoDS_Vertex v0, v1;
+      TopExp::Vertices(edge, v0, v1);
+      if (v0.IsNull()) continue;
+      const gp_Pnt pole = BRep_Tool::Pnt(v0);
+      const double tol = on_tolerance(part_size, BRep_Tool::Tolerance(v0));
+      double first = 0.0, last = 0.0, nearest = tol;
+      BRep_Tool::Range(edge, first, last);
+      m.in_box(Vec3(pole.X(), pole.Y(), pole.Z()) - Vec3(tol), Vec3(pole.X(), pole.Y(), pole.Z()) + Vec3(tol), [&](uint32_t v) {
+        const double d = pole.Distance(gp_Pnt(m.position[v].x, m.position[v].y, m.position[v].z));
+        if (d <= nearest) nearest = d, s.t = {first, last}, s.vertex = {v, v};
+      });
+      continue;
+    }
+    double first = 0.0, last = 0.0;
+    const Handle(Geom_Curve) curve = BRep_Tool::Curve(edge, first, last);  // location applied
+    if (curve.IsNull()) continue;
+    const double tol = on_tolerance(part_size, BRep_Tool::Tolerance(edge));
+    Bnd_Box box;
+    BRepBndLib::Add(edge, box);
+    box.Enlarge(tol);
+    const auto [lo, hi] = box_corners(box);
+    std::vector<std::pair<double, uint32_t>> samples;
+    const gp_Pnt p_first = curve->Value(first), p_last = curve->Value(last);
+    GeomAPI_ProjectPointOnCurve projector;
+    m.in_box(lo, hi, [&](uint32_t v) {
+      const gp_Pnt p(m.position[v].x, m.position[v].y, m.position[v].z);
+      // An end vertex (both ends of a closed edge) takes the end parameters exactly.
+      const bool at_first = p.Distance(p_first) <= tol, at_last = p.Distance(p_last) <= tol;
+      if (at_first) samples.push_back({first, v});
+      if (at_last) samples.push_back({last, v});
+      if (at_first || at_last) return;
+      projector.Init(p, curve, first, last);
+      if (projector.NbPoints() > 0 && projector.LowerDistance() <= tol) samples.push_back({projector.LowerDistanceParameter(), v});
+    });
+    std::sort(samples.begin(), samples.end());
+    for (const auto& [t, v] : samples) {
+      if (!s.t.empty() && t == s.t.back()) continue;
+      s.t.push_back(t), s.vertex.push_back(v);
+    }
+    if (s.t.size() >= 2) set_end_tolerance(b, edge, s, part_size);
+    if (s.free) {
+      for (size_t k = 0; k + 1 < s.vertex.size(); ++k) b.out.boundary_edges.push_back({s.vertex[k], s.vertex[k + 1]});
+    }
+  }
+}
+
+// Each vertex's faces and (u, v): on an edge of the face, the p-curve at its edge parameter; else the
+// projection on the face's surface, when within tolerance and inside the face.
+void faces_from_vertices(PartBuilder& b, MeshOnShape& m, double part_size) {
+  m.on_faces.assign(m.position.size(), {});
+  for (int f = 0; f < b.x.faces.Extent(); ++f) {
+    budget::check("finding the mesh's vertices on the part's faces");
+    const FaceGeometry& g = b.geometry[static_cast<size_t>(f)];
+    if (g.patches.empty()) continue;
+    const TopoDS_Face& face = g.face;
+    std::unordered_map<uint32_t, Vec2> on_edges;
+    for (TopExp_Explorer it(face, TopAbs_EDGE); it.More(); it.Next()) {
+      const TopoDS_Edge edge = TopoDS::Edge(it.Current());
+      const int e = b.x.edges.FindIndex(edge) - 1;
+      const EdgeSamples& s = b.edges[static_cast<size_t>(e)];
+      if (e < 0 || s.t.size() < 2) continue;
+      double pf = 0.0, pl = 0.0;
+      const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(edge, face, pf, pl);
+      if (pc.IsNull()) continue;
+      const bool same = BRep_Tool::SameParameter(edge) && BRep_Tool::SameRange(edge);
+      double first = 0.0, last = 0.0;
+      BRep_Tool::Range(edge, first, last);
+      for (size_t k = 0; k < s.t.size(); ++k) {
+        const double t = same || last == first ? s.t[k] : pf + (s.t[k] - first) * (pl - pf) / (last - first);
+        const gp_Pnt2d q = pc->Value(t);
+        on_edges.emplace(s.vertex[k], Vec2(q.X(), q.Y()));
+      }
+    }
+    double u0, u1, v0, v1;
+    BRepTools::UVBounds(face, u0, u1, v0, v1);
+    const double tol = on_tolerance(part_size, BRep_Tool::Tolerance(face));
+    Vec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (const BezierPatch& p : g.patches) {
+      const Box box = control_box(p);
+      lo = glm::min(lo, box.lo), hi = glm::max(hi, box.hi);
+    }
+    lo -= Vec3(tol), hi += Vec3(tol);
+    const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);
+    GeomAPI_ProjectPointOnSurf projector;
+    BRepTopAdaptor_FClass2d classifier(face, 1e-9 * std::max(u1 - u0, v1 - v0));
+    const auto into_range = [](double x, double lo_, double period) {
+      return period > 0.0 ? lo_ + std::fmod(std::fmod(x - lo_, period) + period, period) : x;
+    };
+    m.in_box(lo, hi, [&](uint32_t v) {
+      const auto edge_uv = on_edges.find(v);
+      if (edge_uv != on_edges.end()) return m.on_faces[v].push_back({f, edge_uv->second});
+      const gp_Pnt p(m.position[v].x, m.position[v].y, m.position[v].z);
+      projector.Init(p, surface, u0, u1, v0, v1);
+      if (projector.NbPoints() == 0 || !(projector.LowerDistance() <= tol)) return;
+      double u = 0.0, w = 0.0;
+      projector.LowerDistanceParameters(u, w);
+      u = into_range(u, u0 - 1e-9 * g.u_period, g.u_period), w = into_range(w, v0 - 1e-9 * g.v_period, g.v_period);
+      if (classifier.Perform(gp_Pnt2d(u, w)) == TopAbs_IN) m.on_faces[v].push_back({f, Vec2(u, w)});
+    });
+  }
+}
+
+// The faces' triangles: the face shared by all three corners (the nearest surface to the triangle's
+// centroid when several are).
+void triangles_to_faces(const PartBuilder& b, MeshOnShape& m, const std::vector<Triangle>& triangles) {
+  m.face_triangles.assign(static_cast<size_t>(b.x.faces.Extent()), {});
+  GeomAPI_ProjectPointOnSurf projector;
+  for (const Triangle& t : triangles) {
+    std::vector<int> common;
+    for (const VertexOnFace& a : m.on_faces[t[0]]) {
+      const auto has = [&](uint32_t v) {
+        return std::any_of(m.on_faces[v].begin(), m.on_faces[v].end(), [&](const VertexOnFace& o) { return o.face == a.face; });
+      };
+      if (has(t[1]) && has(t[2]) && std::find(common.begin(), common.end(), a.face) == common.end()) common.push_back(a.face);
+    }
+    if (common.empty()) {
+      ++m.unassigned;
+      continue;
+    }
+    int best = common.front();
+    if (common.size() > 1) {
+      const Vec3 c = (m.position[t[0]] + m.position[t[1]] + m.position[t[2]]) / 3.0;
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const int f : common) {
+        projector.Init(gp_Pnt(c.x, c.y, c.z), BRep_Tool::Surface(b.geometry[static_cast<size_t>(f)].face));
+        const double d = projector.NbPoints() > 0 ? projector.LowerDistance() : std::numeric_limits<double>::infinity();
+        if (d < nearest) nearest = d, best = f;
+      }
+    }
+    m.face_triangles[static_cast<size_t>(best)].push_back(t);
+  }
+}
+
+bool take_mesh_face(PartBuilder& b, const MeshOnShape& m, const FaceGeometry& g, PartFace& pf, double part_size) {
+  const std::vector<std::array<uint32_t, 3>>& tris = m.face_triangles[static_cast<size_t>(g.report.face_index)];
+  if (tris.empty()) {
+    pf.reason = "no triangle of the mesh lies on the face";
+    return false;
+  }
+  std::vector<std::array<uint32_t, 3>> triangles = tris;
+  std::vector<std::array<Vec2, 3>> raw(tris.size());
+  for (size_t t = 0; t < tris.size(); ++t) {
+    for (int c = 0; c < 3; ++c) {
+      for (const VertexOnFace& o : m.on_faces[tris[t][c]]) {
+        if (o.face == g.report.face_index) raw[t][c] = o.uv;
+      }
+    }
+  }
+  for (TopExp_Explorer it(g.face, TopAbs_EDGE); it.More(); it.Next()) {
+    const TopoDS_Edge edge = TopoDS::Edge(it.Current());
+    const int e = b.x.edges.FindIndex(edge) - 1;
+    EdgeSamples& s = b.edges[static_cast<size_t>(e)];
+    if (BRep_Tool::Degenerated(edge) && s.vertex.size() == 2) {
+      // A pole: the mesh has one vertex P there, the face a segment of (u, v) (the edge's p-curve, a
+      // line). Each triangle (P, a, b) becomes (P at a', a, b) and the collapsed (P at a', b, P at b'),
+      // a' and b' the projections of a and b onto the segment: together they tile the quadrilateral
+      // a', a, b, b' of (u, v), and the fan's collapsed triangles meet along the segment at the pole's
+      // samples (every a', b' becomes an edge parameter of the pole).
+      double f = 0.0, l = 0.0;
+      const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(edge, g.face, f, l);
+      if (pc.IsNull()) continue;
+      const gp_Pnt2d p0 = pc->Value(f), p1 = pc->Value(l);
+      const Vec2 A(p0.X(), p0.Y()), B(p1.X(), p1.Y());
+      const double len2 = glm::dot(B - A, B - A);
+      if (!(len2 > 0.0)) continue;
+      const uint32_t pole = s.vertex.front();
+      const auto along = [&](const Vec2& q) { return std::clamp(glm::dot(q - A, B - A) / len2, 0.0, 1.0); };
+      const size_t count = triangles.size();
+      for (size_t t = 0; t < count; ++t) {
+        int c = 0;
+        while (c < 3 && triangles[t][c] != pole) ++c;
+        if (c == 3) continue;
+        const int a = (c + 1) % 3, bb = (c + 2) % 3;
+        const double sa = along(raw[t][a]), sb = along(raw[t][bb]);
+        const Vec2 qa = A + sa * (B - A), qb = A + sb * (B - A);
+        s.t.push_back(f + sa * (l - f)), s.t.push_back(f + sb * (l - f));
+        raw[t][c] = qa;
+        if (sa != sb) {
+          triangles.push_back({pole, triangles[t][bb], pole});
+          raw.push_back({qa, raw[t][bb], qb});
+        }
+      }
+      std::sort(s.t.begin(), s.t.end());
+      s.t.erase(std::unique(s.t.begin(), s.t.end()), s.t.end());
+      s.vertex.assign(s.t.size(), pole);
+      continue;
+    }
+    double first = 0.0, last = 0.0;
+    BRep_Tool::Range(edge, first, last);
+    if (s.t.size() < 2 || s.t.front() != first || s.t.back() != last) {
+      pf.reason = "edge " + std::to_string(e + 1) + " has no mesh vertex at one of its ends (within " +
+                  std::to_string(on_tolerance(part_size, BRep_Tool::Tolerance(edge))) + " of the edge)";
+      return false;
+    }
+  }
+  return take_face(b, g, pf, triangles, raw, true);
+}
+
+PartMesh mesh_on_shape(const TopoDS_Shape& shape, const std::string& name, const Tessellation& mesh) {
+  if (mesh.triangles.empty()) throw InputError(name + ": the mesh has no triangles");
+  MeshOnShape m;
+  std::vector<Triangle> triangles;
+  uint64_t dropped = 0;
+  double welded = 0.0;
+  PartMesh out = foreign_part(
+      shape, name, true,
+      [&](PartBuilder& b, double part_size) {
+        // Vertices closer than 1e-9 of the part are welded (one mesher's faces may compute a shared
+        // vertex twice, 8e-11 apart in FreeCAD's mesh of pr1ct.stp): each joins the first vertex within
+        // that distance; the largest move is added to every bound (PartMesh::welded).
+        const double weld = 1e-9 * part_size;
+        std::vector<uint32_t> order(mesh.positions.size()), rep(mesh.positions.size());
+        for (uint32_t v = 0; v < order.size(); ++v) order[v] = v, rep[v] = v;
+        std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t c) { return mesh.positions[a].x < mesh.positions[c].x; });
+        for (size_t k = 0; k < order.size(); ++k) {
+          const uint32_t v = order[k];
+          for (size_t j = k; j-- > 0 && mesh.positions[v].x - mesh.positions[order[j]].x <= weld;) {
+            const uint32_t u = rep[order[j]];
+            if (u != v && glm::length(mesh.positions[v] - mesh.positions[u]) <= weld) rep[v] = std::min(rep[v], u);
+          }
+        }
+        NodeIndex nodes(b);
+        std::vector<uint32_t> id(mesh.positions.size());
+        for (size_t v = 0; v < mesh.positions.size(); ++v) {
+          welded = std::max(welded, glm::length(mesh.positions[v] - mesh.positions[rep[v]]));
+          id[v] = nodes.vertex(mesh.positions[rep[v]]);
+        }
+        for (const Triangle& t : mesh.triangles) {
+          const Triangle u = {id[t[0]], id[t[1]], id[t[2]]};
+          if (u[0] == u[1] || u[1] == u[2] || u[2] == u[0]) {
+            ++dropped;
+            continue;
+          }
+          triangles.push_back(u);
+        }
+        for (uint32_t v = 0; v < b.out.mesh.positions.size(); ++v) b.vertex_tolerance[v] = 1e-9 * part_size;
+        m.position = b.out.mesh.positions;
+        m.by_x.resize(m.position.size());
+        for (uint32_t v = 0; v < m.by_x.size(); ++v) m.by_x[v] = v;
+        std::sort(m.by_x.begin(), m.by_x.end(), [&](uint32_t a, uint32_t c) { return m.position[a].x < m.position[c].x; });
+        edges_from_vertices(b, m, part_size);
+        faces_from_vertices(b, m, part_size);
+        triangles_to_faces(b, m, triangles);
+      },
+      [&](PartBuilder& b, const FaceGeometry& g, PartFace& pf, double part_size) { return take_mesh_face(b, m, g, pf, part_size); });
+  out.mesh.degenerate_triangles += dropped;
+  out.unassigned_triangles = m.unassigned;
+  out.welded = welded;
   return out;
 }
 
@@ -1630,6 +1991,10 @@ PartMesh brepmesh_part_file(const std::string& path, const BRepMeshOptions& opti
 
 PartMesh brepmesh_part_brep_string(const std::string& brep_text, const std::string& name, const BRepMeshOptions& options) {
   return brepmesh_shape(read_brep_shape(brep_text, name), name, options);
+}
+
+PartMesh mesh_on_part_file(const std::string& path, const Tessellation& mesh, const std::string& mesh_name) {
+  return mesh_on_shape(read_cad_shape(path), path + " with " + mesh_name, mesh);
 }
 
 }  // namespace sagitta::occt

@@ -117,6 +117,10 @@ struct PartMesh {
   int faces_trimmed = 0;
   int edges = 0;                 // B-rep edges (degenerated ones included)
   uint64_t edge_vertices = 0;    // vertices on edges (B-rep vertices included)
+  uint64_t unassigned_triangles = 0;  // a foreign mesh's triangles that lie on no single face
+  // A foreign mesh's vertices closer than 1e-9 of the part were welded: the largest move. The
+  // certificate of this PartMesh adds it to its bounds, so they hold for the mesh as it was read.
+  double welded = 0.0;
   double seconds = 0.0;
 };
 
@@ -145,5 +149,14 @@ struct BRepMeshOptions {
 };
 PartMesh brepmesh_part_file(const std::string& path, const BRepMeshOptions& options);
 PartMesh brepmesh_part_brep_string(const std::string& brep_text, const std::string& name, const BRepMeshOptions& options);
+
+// Any mesh of the part (read from an STL, OBJ or PLY: no (u, v), no face ids) in the same form: its
+// vertices merged by bit-identical position, each found on the B-rep's edges (within 1e-6 of the part's
+// size or twice the edge's tolerance of its 3D curve: the edge parameter) and faces (projected on the
+// surface within the same tolerance and classified inside the face: the face's (u, v)); a triangle
+// belongs to the face its three corners share (the nearest surface to its centroid when several do).
+// A face whose edges have no mesh vertex at a B-rep vertex, or with a pole, is listed as skipped with
+// the reason; triangles on no face are counted (PartMesh::unassigned_triangles).
+PartMesh mesh_on_part_file(const std::string& path, const Tessellation& mesh, const std::string& mesh_name);
 
 }  // namespace sagitta::occt
