@@ -4,8 +4,9 @@
 // (BRepExtrema_DistShapeShape). Upper bounds must hold against both; lower bounds must be justified by
 // their witnesses measured against OCCT's face (this catches patches that differ from the face, as
 // bug24595's periodic B-spline faces did before 5698f6a: certified [1.95, 7.27] for a mesh 0.06 from
-// the face). Both meshes are checked: ours (level 2) and BRepMesh's in PartMesh form. Then planted defects (a moved vertex, a missing triangle, a flipped face) must be seen by the
-// certificate or by validate_part.
+// the face). Both meshes are checked: ours (level 2) and BRepMesh's in PartMesh form. Then planted
+// defects (a moved vertex, a missing triangle, a flipped face) must be seen by the certificate or by
+// validate_part.
 #include "occt_shape.hpp"
 
 #include "sagitta/app/part.hpp"
@@ -38,9 +39,9 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
-#include <cctype>
 #include <iomanip>
 #include <iostream>
 #include <limits>
@@ -267,6 +268,237 @@ INSTANTIATE_TEST_SUITE_P(SharedStep, PartBruteForce,
                            }
                            return name;
                          });
+
+// ---- Planted defects on our own mesh of OCC2368 (level 2) ----------------------------------------
+
+struct Planted {
+  std::string path = shared_data("cad/step/OCC2368.stp");
+  OcctPart occt_part;
+  occt::PartMesh part;
+  app::PartCertificate cert;
+  double target = 0.0;  // T: the part's certified upper bound
+};
+
+std::vector<size_t> triangles_of(const occt::PartMesh& part, int face) {
+  std::vector<size_t> out;
+  for (size_t t = 0; t < part.triangle_face.size(); ++t) {
+    if (part.triangle_face[t] == static_cast<uint32_t>(face)) out.push_back(t);
+  }
+  return out;
+}
+
+// The faces with a triangle that uses vertex v.
+std::set<int> faces_using(const occt::PartMesh& part, uint32_t v) {
+  std::set<int> out;
+  for (size_t t = 0; t < part.mesh.triangles.size(); ++t) {
+    const Triangle& tri = part.mesh.triangles[t];
+    if (tri[0] == v || tri[1] == v || tri[2] == v) out.insert(static_cast<int>(part.triangle_face[t]));
+  }
+  return out;
+}
+
+int wire_count(const TopoDS_Face& face) {
+  int n = 0;
+  for (TopExp_Explorer w(face, TopAbs_WIRE); w.More(); w.Next()) ++n;
+  return n;
+}
+
+// The first certified face of type Plane re-triangulated inside its loops (chords), with at least
+// `wires` wires; -1 when none.
+int planar_loop_face(const Planted& p, int wires) {
+  for (const occt::PartFace& f : p.part.faces) {
+    if (f.surface_type == "Plane" && f.trimmed && !f.chords.empty() && p.cert.faces[f.face_index].certified &&
+        p.cert.faces[f.face_index].route == "loops" && wire_count(p.occt_part.face(f.face_index)) >= wires)
+      return f.face_index;
+  }
+  return -1;
+}
+
+// Faces other than `changed` keep exactly their certificate.
+void expect_other_faces_unchanged(const app::PartCertificate& before, const app::PartCertificate& after,
+                                  const std::set<int>& changed) {
+  ASSERT_EQ(before.faces.size(), after.faces.size());
+  for (size_t k = 0; k < before.faces.size(); ++k) {
+    if (changed.count(static_cast<int>(k))) continue;
+    EXPECT_EQ(after.faces[k].certified, before.faces[k].certified) << "face " << k;
+    EXPECT_EQ(after.faces[k].hausdorff.lower, before.faces[k].hausdorff.lower) << "face " << k;
+    EXPECT_EQ(after.faces[k].hausdorff.upper, before.faces[k].hausdorff.upper) << "face " << k;
+  }
+}
+
+class PlantedDefects : public testing::Test {
+ protected:
+  void SetUp() override {
+    SAGITTA_REQUIRE_DATA(p.path);
+    p.occt_part = read_part(p.path);
+    p.part = our_mesh(p.path);
+    p.cert = app::certify_part(p.part);
+    ASSERT_TRUE(p.cert.all_certified);
+    p.target = p.cert.distance.hausdorff.upper;
+    ASSERT_GT(p.target, 0.0);
+  }
+  Planted p;
+};
+
+// (a) A boundary vertex of a trimmed planar face moved 10 T along the face's normal: the vertex is a
+// mesh point 10 T off the plane, so the face's certified upper bound must reach 10 T, and its lower
+// bound rises with it (measured: 0.995 of 10 T, the lower bound's proof being conservative); the
+// triangles on that vertex carry the move; faces without that vertex keep their bounds exactly; and
+// every certified bound (the moved faces' included) still holds against brute force.
+TEST_F(PlantedDefects, MovedBoundaryVertexRaisesTheFaceBound) {
+  const int face = planar_loop_face(p, 1);
+  ASSERT_GE(face, 0) << "no trimmed planar face with chords";
+  const occt::PartFace& f = p.part.faces[face];
+  const uint32_t v = f.chords.front().a;
+  // The plane's normal from the face's largest triangle.
+  Vec3 normal(0.0);
+  for (const size_t t : triangles_of(p.part, face)) {
+    const Triangle& tri = p.part.mesh.triangles[t];
+    const Vec3 n = glm::cross(p.part.mesh.positions[tri[1]] - p.part.mesh.positions[tri[0]],
+                              p.part.mesh.positions[tri[2]] - p.part.mesh.positions[tri[0]]);
+    if (glm::length(n) > glm::length(normal)) normal = n;
+  }
+  normal = glm::normalize(normal);
+  const double move = 10.0 * p.target;
+  occt::PartMesh moved = p.part;
+  moved.mesh.positions[v] += move * normal;
+  const app::PartCertificate cert = app::certify_part(moved);
+  const app::FaceCertificate& fc = cert.faces[face];
+  std::cout << "moved vertex " << v << " of " << f.name << " by 10 T = " << move << ": certified [" << fc.hausdorff.lower
+            << ", " << fc.hausdorff.upper << "] (was [" << p.cert.faces[face].hausdorff.lower << ", "
+            << p.cert.faces[face].hausdorff.upper << "])\n";
+  EXPECT_TRUE(fc.certified) << fc.reason;
+  EXPECT_GE(fc.hausdorff.upper, move * (1 - 1e-6));
+  EXPECT_GE(fc.hausdorff.lower, 0.99 * move);
+  EXPECT_LE(fc.hausdorff.lower, fc.hausdorff.upper);
+  EXPECT_GE(cert.distance.hausdorff.upper, move * (1 - 1e-6));
+  for (const size_t t : triangles_of(moved, face)) {
+    const Triangle& tri = moved.mesh.triangles[t];
+    if (tri[0] == v || tri[1] == v || tri[2] == v) EXPECT_GE(cert.triangle_upper[t], move * (1 - 1e-6)) << "triangle " << t;
+  }
+  const std::set<int> touching = faces_using(p.part, v);
+  EXPECT_TRUE(touching.count(face));
+  expect_other_faces_unchanged(p.cert, cert, touching);
+  expect_bounds_hold(p.occt_part, moved, cert, "OCC2368 moved vertex");
+}
+
+// (b) The triangle on one chord of a hole's boundary removed: the triangles no longer tile the loops'
+// polygon, so the face is not certified (and the part has no certified upper bound); its three sides
+// are open and on no free B-rep edge: three cracks, the solid no longer closed.
+TEST_F(PlantedDefects, MissingTriangleOnAHoleIsNotCertified) {
+  const int face = planar_loop_face(p, 2);
+  ASSERT_GE(face, 0) << "no trimmed planar face with a hole";
+  const occt::PartFace& f = p.part.faces[face];
+  const TopoDS_Face& occt_face = p.occt_part.face(face);
+  const TopoDS_Wire outer = BRepTools::OuterWire(occt_face);
+  // A chord on an inner wire: both its vertices within the B-rep's tolerance of a wire other than the outer one.
+  const double fuzz = 1e-7 * p.occt_part.diagonal + brep_tolerance(occt_face);
+  const auto on_wire = [&](uint32_t vertex, const TopoDS_Shape& wire) {
+    const Vec3 x = p.part.mesh.positions[vertex];
+    BRepExtrema_DistShapeShape d(BRepBuilderAPI_MakeVertex(gp_Pnt(x.x, x.y, x.z)).Vertex(), wire);
+    return d.IsDone() && d.Value() <= fuzz;
+  };
+  int hole_chord = -1;
+  for (size_t k = 0; k < f.chords.size() && hole_chord < 0; ++k) {
+    for (TopExp_Explorer w(occt_face, TopAbs_WIRE); w.More(); w.Next()) {
+      if (!w.Current().IsSame(outer) && on_wire(f.chords[k].a, w.Current()) && on_wire(f.chords[k].b, w.Current()))
+        hole_chord = static_cast<int>(k);
+    }
+  }
+  ASSERT_GE(hole_chord, 0) << f.name;
+  const uint32_t a = f.chords[hole_chord].a, b = f.chords[hole_chord].b;
+  size_t removed = p.part.mesh.triangles.size();
+  for (const size_t t : triangles_of(p.part, face)) {
+    const Triangle& tri = p.part.mesh.triangles[t];
+    const bool has_a = tri[0] == a || tri[1] == a || tri[2] == a, has_b = tri[0] == b || tri[1] == b || tri[2] == b;
+    if (has_a && has_b) removed = t;
+  }
+  ASSERT_LT(removed, p.part.mesh.triangles.size());
+  occt::PartMesh cut = p.part;
+  const auto erase = [removed](auto& v) { v.erase(v.begin() + static_cast<std::ptrdiff_t>(removed)); };
+  erase(cut.mesh.triangles);
+  erase(cut.mesh.triangle_patch);
+  erase(cut.mesh.triangle_uv);
+  erase(cut.triangle_face);
+  erase(cut.triangle_solid);
+  cut.mesh.strips.clear();
+  --cut.faces[face].triangles;
+  --cut.solids[f.solid].triangles;
+  const app::PartCertificate cert = app::certify_part(cut);
+  const app::FaceCertificate& fc = cert.faces[face];
+  const app::PartValidation v = app::validate_part(cut);
+  std::cout << "removed triangle " << removed << " of " << f.name << " on hole chord " << a << "-" << b
+            << ": certified " << fc.certified << " (" << fc.reason << "); cracks " << v.crack_edges << "\n";
+  EXPECT_FALSE(fc.certified);
+  EXPECT_NE(fc.reason.find("differs from the loops' chords"), std::string::npos) << fc.reason;
+  EXPECT_FALSE(std::isfinite(fc.hausdorff.upper));
+  EXPECT_FALSE(cert.all_certified);
+  EXPECT_FALSE(std::isfinite(cert.distance.hausdorff.upper));
+  EXPECT_EQ(cert.faces_certified, p.cert.faces_certified - 1);
+  expect_other_faces_unchanged(p.cert, cert, {face});
+  expect_bounds_hold(p.occt_part, cut, cert, "OCC2368 missing triangle");
+  EXPECT_EQ(v.crack_edges, 3u);
+  EXPECT_FALSE(v.watertight);
+  EXPECT_FALSE(v.closed_solids_closed);
+  for (const SolidCheck& c : v.checks) {
+    if (c.solid != f.solid) continue;
+    EXPECT_EQ(c.open_edges, 3u);
+    EXPECT_FALSE(c.closed);
+    EXPECT_EQ(c.signed_volume, 0.0);
+    EXPECT_FALSE(c.cgal_closed);
+  }
+}
+
+// (c) Every triangle of one face flipped (corners and their (U, V) swapped): the distance does not
+// depend on orientation, so the face keeps its certificate; but the face's boundary edges now run in
+// the same direction as its neighbours': validate_part reports them as inconsistently oriented, the
+// solid as not closed (no volume), CGAL refuses the triangles as a polygon mesh, and the B-rep's closed
+// valid solid has no closed mesh. watertight stays true: it speaks of cracks, T-junctions and
+// non-manifold edges only, and there is none.
+TEST_F(PlantedDefects, FlippedFaceIsNotAnOrientedSolid) {
+  const int face = planar_loop_face(p, 1);
+  ASSERT_GE(face, 0);
+  const occt::PartFace& f = p.part.faces[face];
+  ASSERT_GE(f.solid, 0);
+  occt::PartMesh flipped = p.part;
+  for (const size_t t : triangles_of(p.part, face)) {
+    std::swap(flipped.mesh.triangles[t][1], flipped.mesh.triangles[t][2]);
+    std::swap(flipped.mesh.triangle_uv[t][1], flipped.mesh.triangle_uv[t][2]);
+  }
+  flipped.mesh.strips.clear();
+  const app::PartCertificate cert = app::certify_part(flipped);
+  const app::FaceCertificate& fc = cert.faces[face];
+  const app::PartValidation before = app::validate_part(p.part), v = app::validate_part(flipped);
+  ASSERT_EQ(v.checks.size(), before.checks.size());
+  EXPECT_TRUE(fc.certified) << fc.reason;
+  EXPECT_NEAR(fc.hausdorff.upper, p.cert.faces[face].hausdorff.upper, 1e-9 * p.cert.faces[face].hausdorff.upper);
+  EXPECT_NEAR(fc.hausdorff.lower, p.cert.faces[face].hausdorff.lower, 1e-9 * p.cert.faces[face].hausdorff.upper);
+  expect_other_faces_unchanged(p.cert, cert, {face});
+  for (size_t k = 0; k < v.checks.size(); ++k) {
+    const SolidCheck& c = v.checks[k];
+    if (c.solid != f.solid) continue;
+    std::cout << "flipped " << f.name << " (" << f.chords.size() << " chords): inconsistently oriented edges "
+              << c.inconsistent_orientation_edges << ", closed " << c.closed << ", CGAL: " << c.cgal_note << "\n";
+    ASSERT_TRUE(before.checks[k].closed);  // the unchanged mesh is a closed oriented solid
+    EXPECT_TRUE(before.checks[k].cgal_outward);
+    // Every chord of the face is a mesh edge shared with a neighbouring face (none is on a free edge).
+    EXPECT_EQ(c.inconsistent_orientation_edges, f.chords.size());
+    EXPECT_EQ(c.open_edges, 0u);
+    EXPECT_FALSE(c.closed);
+    EXPECT_EQ(c.signed_volume, 0.0);
+    EXPECT_FALSE(c.cgal_checked);
+    EXPECT_FALSE(c.cgal_closed);
+    EXPECT_FALSE(c.cgal_outward);
+  }
+  EXPECT_TRUE(v.watertight);
+  ASSERT_FALSE(v.volumes.empty());  // OCC2368's solid is closed and valid for OCCT
+  EXPECT_FALSE(v.closed_solids_closed);
+  for (const app::SolidVolume& s : v.volumes) {
+    if (s.solid != f.solid) continue;
+    EXPECT_FALSE(s.mesh_closed);
+    EXPECT_FALSE(std::isfinite(s.relative_error));
+  }
+}
 
 }  // namespace
 }  // namespace sagitta
