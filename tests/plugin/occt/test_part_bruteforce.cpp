@@ -374,7 +374,9 @@ TEST_F(PlantedDefects, MovedBoundaryVertexRaisesTheFaceBound) {
   EXPECT_GE(cert.distance.hausdorff.upper, move * (1 - 1e-6));
   for (const size_t t : triangles_of(moved, face)) {
     const Triangle& tri = moved.mesh.triangles[t];
-    if (tri[0] == v || tri[1] == v || tri[2] == v) EXPECT_GE(cert.triangle_upper[t], move * (1 - 1e-6)) << "triangle " << t;
+    if (tri[0] == v || tri[1] == v || tri[2] == v) {
+      EXPECT_GE(cert.triangle_upper[t], move * (1 - 1e-6)) << "triangle " << t;
+    }
   }
   const std::set<int> touching = faces_using(p.part, v);
   EXPECT_TRUE(touching.count(face));
