@@ -253,7 +253,9 @@ TEST_P(PartBruteForce, CertifiedFacesHoldAgainstOcct) {
     std::cout << std::setprecision(10) << what << ": " << b.faces_checked << "/" << part.faces.size() << " certified faces checked, "
               << part.mesh.triangles.size() << " triangles, worst brute/upper " << b.worst_ratio << " ("
               << b.worst_face << "), " << seconds_since(start) << " s\n";
-    RecordProperty(ours ? "ours_worst_ratio" : "brepmesh_worst_ratio", std::to_string(b.worst_ratio));
+    const std::string mesher = ours ? "ours" : "brepmesh";
+    RecordProperty(mesher + "_faces_checked", b.faces_checked);
+    RecordProperty(mesher + "_worst_ratio", std::to_string(b.worst_ratio));
   }
 }
 
