@@ -1926,19 +1926,25 @@ PartMesh mesh_on_shape(const TopoDS_Shape& shape, const std::string& name, const
       shape, name, true,
       [&](PartBuilder& b, double part_size) {
         // Vertices closer than 1e-9 of the part are welded (one mesher's faces may compute a shared
-        // vertex twice, 8e-11 apart in FreeCAD's mesh of pr1ct.stp): each joins the first vertex within
-        // that distance; the largest move is added to every bound (PartMesh::welded).
+        // vertex twice, 8e-11 apart in FreeCAD's mesh of pr1ct.stp): clusters of vertices within that
+        // distance of each other become their first vertex; the largest move is added to every bound (PartMesh::welded).
         const double weld = 1e-9 * part_size;
         std::vector<uint32_t> order(mesh.positions.size()), rep(mesh.positions.size());
         for (uint32_t v = 0; v < order.size(); ++v) order[v] = v, rep[v] = v;
         std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t c) { return mesh.positions[a].x < mesh.positions[c].x; });
+        const auto find = [&](uint32_t v) {
+          while (rep[v] != v) v = rep[v] = rep[rep[v]];
+          return v;
+        };
         for (size_t k = 0; k < order.size(); ++k) {
           const uint32_t v = order[k];
           for (size_t j = k; j-- > 0 && mesh.positions[v].x - mesh.positions[order[j]].x <= weld;) {
-            const uint32_t u = rep[order[j]];
-            if (u != v && glm::length(mesh.positions[v] - mesh.positions[u]) <= weld) rep[v] = std::min(rep[v], u);
+            if (glm::length(mesh.positions[v] - mesh.positions[order[j]]) > weld) continue;
+            const uint32_t a = find(v), c = find(order[j]);
+            if (a != c) rep[std::max(a, c)] = std::min(a, c);
           }
         }
+        for (uint32_t v = 0; v < rep.size(); ++v) rep[v] = find(v);
         NodeIndex nodes(b);
         std::vector<uint32_t> id(mesh.positions.size());
         for (size_t v = 0; v < mesh.positions.size(); ++v) {
