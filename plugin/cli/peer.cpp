@@ -50,21 +50,13 @@ struct PeerMesh {
   occt::PeerResult result;
 };
 
-// Loads the input (a CAD file or a patch file) and meshes it with OCCT; `doc` receives the input's name
-// and, for a CAD file, its conversion counts.
+// Loads the patch file and meshes it with OCCT; `doc` receives the input's name.
 PeerMesh mesh_with_occt(const PeerCliOptions& o, const occt::PeerOptions& options, nlohmann::json& doc) {
   doc["input"] = o.input.empty() ? "default" : o.input;
   PeerMesh peer;
-  if (occt::is_cad_file(o.input)) {
-    const occt::CadModel cad = occt::read_cad_file(o.input);
-    doc.update(cad_json(cad));
-    peer.model = cad.model;
-    peer.result = occt::peer_mesh_cad_file(o.input, options);
-  } else {
-    peer.model = load_model(o.input);
-    peer.model.name = o.input.empty() ? "default" : o.input;
-    peer.result = occt::peer_mesh_model(peer.model, options);
-  }
+  peer.model = load_model(o.input);
+  peer.model.name = o.input.empty() ? "default" : o.input;
+  peer.result = occt::peer_mesh_model(peer.model, options);
   return peer;
 }
 
@@ -72,31 +64,6 @@ PeerMesh mesh_with_occt(const PeerCliOptions& o, const occt::PeerOptions& option
 TopologyReport check_peer_topology(const PeerMesh& peer) {
   const Topology topology = build_topology(peer.model);
   return check_mesh_topology(peer.result.mesh, &peer.model, &topology);
-}
-
-// Trimmed faces, each measured against the face restricted to its trimmed domain (docs/CAD.md).
-nlohmann::json trimmed_faces_json(const occt::PeerResult& r) {
-  nlohmann::json faces = nlohmann::json::array();
-  for (const occt::TrimmedFacePeer& t : r.trimmed) {
-    nlohmann::json f = {
-        {"name", t.name}, {"validated", t.validated}, {"triangles", t.triangles}, {"reasons", t.reasons}};
-    if (t.validated) {
-      f["pieces"] = t.pieces;
-      f["triangles_outside_domain"] = t.triangles_outside;
-      f["uv_area"] = t.uv_area;
-      f["domain_area"] = t.domain_area;
-      f["hausdorff"] = peer_interval_json(t.distance.hausdorff);
-      f["mesh_to_face"] = peer_interval_json(t.distance.mesh_to_surface);
-      f["face_to_mesh"] = peer_interval_json(t.distance.surface_to_mesh);
-    }
-    faces.push_back(f);
-  }
-  return {{"count", r.trimmed.size()},
-          {"validated", r.trimmed_validated},
-          {"upper_certified", r.trimmed_hausdorff.certified},
-          {"interval", peer_interval_json(r.trimmed_hausdorff)},
-          {"seconds", r.trimmed_seconds},
-          {"faces", faces}};
 }
 
 // Adds the mesher, the mesh's counts, its certified distances and its topology to the report `doc`.
@@ -112,7 +79,6 @@ void add_peer_json(nlohmann::json& doc, const PeerCliOptions& o, const PeerMesh&
   doc["vertices"] = r.mesh.positions.size();
   doc["faces_meshed"] = r.faces_meshed;
   doc["faces_without_mesh"] = r.faces_without_mesh;
-  doc["faces_not_validated"] = r.faces_not_validated;
   doc["mesh_seconds"] = r.mesh_seconds;
   doc["route"] = r.route;
   if (r.route == "bernstein") doc["max_node_offset"] = r.max_node_offset;
@@ -124,7 +90,6 @@ void add_peer_json(nlohmann::json& doc, const PeerCliOptions& o, const PeerMesh&
   if (!r.distance.coverage_note.empty()) doc["coverage_note"] = r.distance.coverage_note;
   if (!r.distance.not_certified_reason.empty()) doc["not_certified_reason"] = r.distance.not_certified_reason;
   doc["validate_seconds"] = r.validate_seconds;
-  if (!r.trimmed.empty()) doc["trimmed_faces"] = trimmed_faces_json(r);
   doc["topology"] = {{"open_edges", topo.open_edges},     {"model_boundary_edges", topo.model_boundary_edges},
                      {"crack_edges", topo.crack_edges},   {"t_junctions", topo.t_junctions},
                      {"non_manifold_edges", topo.non_manifold_edges},
@@ -137,11 +102,6 @@ void print_peer_summary(const PeerCliOptions& o, const occt::PeerResult& r, cons
   std::cout << "occt: deflection " << o.deflection << ", angle " << o.angle << ": " << r.triangles << " triangles in "
             << r.mesh_seconds << " s; hausdorff in [" << r.distance.hausdorff.lower << ", " << r.distance.hausdorff.upper << "]"
             << (r.distance.hausdorff.certified ? "" : " (upper not certified)") << " (" << r.route << " route"
-            << (r.faces_not_validated ? ", " + std::to_string(r.faces_not_validated) + " trimmed/skipped faces not validated" : "")
-            << (r.trimmed.empty() ? std::string()
-                                  : "; trimmed faces " + std::to_string(r.trimmed_validated) + "/" + std::to_string(r.trimmed.size()) +
-                                        " validated, per-face max in [" + std::to_string(r.trimmed_hausdorff.lower) + ", " +
-                                        (r.trimmed_hausdorff.certified ? std::to_string(r.trimmed_hausdorff.upper) : std::string("not certified")) + "]")
             << "); cracks " << topo.crack_edges << ", T-junctions " << topo.t_junctions << "\n";
 }
 

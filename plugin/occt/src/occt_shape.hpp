@@ -24,12 +24,6 @@ std::vector<BezierPatch> face_patches(const TopoDS_Face& face, const std::string
                                       FaceReport& r, Handle(Geom_BSplineSurface)* converted = nullptr);
 // Faces of the shape (TopExp::MapShapes order) as Bézier patches, with a report per face.
 CadModel cad_model_from_shape(const TopoDS_Shape& shape, const std::string& name, const CadOptions& options);
-// The triangulation OCCT left on a trimmed face, measured against the face (its Bézier patches
-// `report.patch_count` from trimmed_patches[report.first_patch], restricted to the trimmed domain);
-// trimmed.cpp and docs/CAD.md say what is certified.
-TrimmedFacePeer measure_trimmed_face(const TopoDS_Face& face, const FaceReport& report,
-                                     const std::vector<BezierPatch>& trimmed_patches, const CertifyOptions& certify);
-
 // The whole-part mesher on a shape already read (part.cpp; the benchmark times it without the reader).
 PartMesh mesh_part_shape(const TopoDS_Shape& shape, const std::string& name, const PartOptions& options);
 

@@ -128,66 +128,6 @@ void validate(const Model& model, PeerResult& r, const PeerOptions& o) {
   r.validate_seconds = seconds_since(start);
 }
 
-PeerResult peer_on_shape(const TopoDS_Shape& shape, const std::string& name, const PeerOptions& options) {
-  const CadModel cad = cad_model_from_shape(shape, name, {});
-  if (cad.model.patches.empty()) throw InputError(name + ": no untrimmed face to validate (all faces are trimmed or skipped)");
-  PeerResult r;
-  r.route = "reference";
-  try {
-    run_mesher(shape, options, r);
-  } catch (const Standard_Failure& e) {
-    throw InputError(name + ": BRepMesh failed (" + std::string(e.GetMessageString()) + ")");
-  }
-  TopTools_IndexedMapOfShape faces;
-  TopExp::MapShapes(shape, TopAbs_FACE, faces);
-  MeshCollector collector;
-  MeshCollector others;
-  double unused = 0.0;
-  for (int k = 1; k <= faces.Extent(); ++k) {
-    const bool validated = cad.faces[k - 1].status == "tessellated";
-    const long n = (validated ? collector : others).add_face(TopoDS::Face(faces(k)), -1, nullptr, unused);
-    if (n < 0) {
-      ++r.faces_without_mesh;
-      continue;
-    }
-    ++r.faces_meshed;
-    r.triangles += static_cast<size_t>(n);
-    if (!validated) ++r.faces_not_validated;
-  }
-  r.mesh = std::move(collector.mesh);
-  r.triangles_validated = r.mesh.triangles.size();
-  Model model = cad.model;
-  validate(model, r, options);
-  // Trimmed faces, one by one against the face restricted to its trimmed domain.
-  if (options.validate_trimmed) {
-    const auto start = std::chrono::steady_clock::now();
-    r.trimmed_hausdorff.certified = true;
-    double upper = 0.0;
-    for (int k = 1; k <= faces.Extent(); ++k) {
-      const FaceReport& fr = cad.faces[k - 1];
-      if (fr.status != "trimmed") continue;
-      TrimmedFacePeer t;
-      try {
-        t = measure_trimmed_face(TopoDS::Face(faces(k)), fr, cad.trimmed_patches, options.certify);
-      } catch (const Standard_Failure& e) {
-        t.name = fr.name;
-        t.reasons.push_back(std::string("OCCT failed on the face (") + e.GetMessageString() + ")");
-      }
-      if (t.validated) {
-        ++r.trimmed_validated;
-        if (t.triangles > 0) --r.faces_not_validated;  // counted above as meshed but not validated
-        r.trimmed_hausdorff.lower = std::max(r.trimmed_hausdorff.lower, t.distance.hausdorff.lower);
-        upper = std::max(upper, t.distance.hausdorff.upper);
-      }
-      r.trimmed_hausdorff.certified = r.trimmed_hausdorff.certified && t.validated && t.distance.hausdorff.certified;
-      r.trimmed.push_back(std::move(t));
-    }
-    r.trimmed_hausdorff.upper = r.trimmed_hausdorff.certified ? upper : std::numeric_limits<double>::infinity();
-    r.trimmed_seconds = seconds_since(start);
-  }
-  return r;
-}
-
 }  // namespace
 
 PeerResult peer_mesh_model(const Model& model, const PeerOptions& options) {
@@ -245,14 +185,6 @@ PeerResult peer_mesh_model(const Model& model, const PeerOptions& options) {
   r.route = "bernstein";
   validate(model, r, options);
   return r;
-}
-
-PeerResult peer_mesh_cad_file(const std::string& path, const PeerOptions& options) {
-  return peer_on_shape(read_cad_shape(path), path, options);
-}
-
-PeerResult peer_mesh_brep_string(const std::string& brep_text, const std::string& name, const PeerOptions& options) {
-  return peer_on_shape(read_brep_shape(brep_text, name), name, options);
 }
 
 }  // namespace sagitta::occt

@@ -264,20 +264,5 @@ TEST(OcctPeer, TeapotIntervalContainsBruteForceSamples) {
   EXPECT_LE(worst, r.distance.hausdorff.upper * (1 + 1e-9));
 }
 
-TEST(OcctPeer, CadFileRoute) {
-  const std::string path = shared_data("cad/wing.brep");
-  SAGITTA_REQUIRE_DATA(path);
-  occt::PeerOptions options;
-  options.deflection = 1e-2;
-  options.reference_segments = 8;
-  const occt::PeerResult r = occt::peer_mesh_cad_file(path, options);
-  EXPECT_EQ(r.route, "reference");
-  EXPECT_EQ(r.faces_meshed, 4);
-  EXPECT_EQ(r.faces_not_validated, 0);
-  EXPECT_GT(r.triangles, 0u);
-  EXPECT_LE(r.distance.hausdorff.lower, r.distance.hausdorff.upper);
-  EXPECT_TRUE(std::isfinite(r.distance.hausdorff.upper));
-}
-
 }  // namespace
 }  // namespace sagitta

@@ -81,24 +81,6 @@ struct PeerOptions {
   // certify_external's reference segments per patch side when the (u, v) route does not apply;
   // 0 picks about 2 million reference triangles in all (between 2 and 32 segments per side).
   int reference_segments = 0;
-  bool validate_trimmed = true;  // CAD input: measure the trimmed faces' triangles too
-};
-
-// One trimmed face measured against the exact face = its surface restricted to the trimmed domain D
-// (docs/CAD.md, "Trimmed faces"). Lower bounds are always sound; an upper bound is certified only
-// when the checks named in `reasons` did not fail.
-struct TrimmedFacePeer {
-  std::string name;               // "Face 12"
-  bool validated = false;         // an interval was computed (false: `reasons` says why)
-  size_t triangles = 0;           // OCCT's triangles on the face
-  size_t pieces = 0;              // after splitting the (u, v) triangles along the Bézier patch grid
-  size_t triangles_outside = 0;   // (u, v) triangles not shown to lie inside D
-  double uv_area = 0.0;           // total (u, v) area of the triangles
-  double domain_area = 0.0;       // area of D (Green's theorem on the p-curves, Gauss quadrature)
-  bool straight_boundary = false; // every p-curve is a line
-  double max_node_offset = 0.0;   // largest |node - S(patch, local u, v)|: checks the (u, v) mapping
-  DistanceReport distance;        // mesh_to_surface / surface_to_mesh / hausdorff against the face
-  std::vector<std::string> reasons;
 };
 
 struct PeerResult {
@@ -108,31 +90,19 @@ struct PeerResult {
   size_t triangles_validated = 0;  // those in `mesh`: the faces the validator can measure
   int faces_meshed = 0;            // faces that received a triangulation
   int faces_without_mesh = 0;
-  int faces_not_validated = 0;     // trimmed or skipped faces (CAD input): meshed by OCCT, not in `mesh`
   // "bernstein": every face is one Bézier patch and each vertex carries its (patch, u, v), so the
   // validator's own-mesh certificate applies; "reference": certify_external (no per-vertex patch).
   std::string route;
   double max_node_offset = 0.0;  // largest |node - S(u, v)| over OCCT's nodes (bernstein route)
   DistanceReport distance;
   double validate_seconds = 0.0;
-  // Trimmed faces (CAD input): each face's OCCT triangles against the face itself.
-  std::vector<TrimmedFacePeer> trimmed;
-  int trimmed_validated = 0;
-  // Max over the trimmed faces of the Hausdorff distance between a face's triangles and the face:
-  // lower = the largest face lower bound; upper certified only when every trimmed face's is.
-  DistanceInterval trimmed_hausdorff;
-  double trimmed_seconds = 0.0;
 };
 
 // Meshes a patch model with OCCT: one Geom_BezierSurface face per patch, sewn so that neighbouring
 // faces share edges, then BRepMesh_IncrementalMesh; validates the result against `model`.
 PeerResult peer_mesh_model(const Model& model, const PeerOptions& options = {});
 
-// Meshes a CAD file's whole shape with OCCT and validates the triangles of its untrimmed faces against
-// cad.model (route "reference": a B-spline face spans many Bézier patches). Trimmed faces are measured
-// one by one against the face restricted to its trimmed domain (PeerResult::trimmed); skipped faces and
-// trimmed faces that cannot be measured are counted in faces_not_validated.
-PeerResult peer_mesh_cad_file(const std::string& path, const PeerOptions& options = {});
-PeerResult peer_mesh_brep_string(const std::string& brep_text, const std::string& name, const PeerOptions& options = {});
+// CAD files: BRepMesh's mesh of the whole part as a PartMesh (brepmesh_part_file, sagitta/occt/part.hpp),
+// certified face by face by app::certify_part.
 
 }  // namespace sagitta::occt
