@@ -912,30 +912,12 @@ def validate_part(obj, max_depth=None):
             raise SagittaError(str(error))
         return part, checks, part_certificate(part, depth), start
     part, checks, certificate, start = run_long("Validating %s" % label, measure)
-    facts = {s["index"]: s for s in part.solids}
-    for check in checks:
-        solid = facts.get(check["solid"])
-        check["brep_closed"] = bool(solid and solid["closed"])
-        check["brep_valid"] = bool(solid and solid["valid"])
-        check["brep_volume"] = solid["volume"] if solid else 0.0
     errors = certificate["triangle_error"].tolist()
     if len(errors) != obj.Mesh.CountFacets:
         raise SagittaError("%s: the part meshes to %d triangles now, the feature has %d: recompute it, then Validate"
                            % (obj.Label, len(errors), obj.Mesh.CountFacets))
     colours, top = certified_error_colours(errors)
-    names = freecad_face_names(obj.Source)
-    report = {"kind": "part", "label": obj.Label, "triangles": part.mesh.triangle_count,
-              "vertices": part.mesh.vertex_count, "faces": len(part.faces), "faces_trimmed": part.faces_trimmed,
-              "faces_skipped": part.faces_skipped, "solids": checks,
-              "distance": certificate_text(certificate, part, names),
-              "certified": certificate["certified"], "hausdorff": certificate["hausdorff"],
-              "face_certificates": [dict(name=face_note_name(face, names), **{k: c.get(k) for k in (
-                  "route", "certified", "lower", "upper", "reason")})
-                  for face, c in zip(part.faces, certificate["faces"])],
-              "seconds": time.perf_counter() - start,
-              "faces_to_check": faces_to_check(part, certificate, names),
-              "triangle_error": certificate["triangle_error"], "colour_scale_top": top,
-              "uncertified_triangles": sum(1 for e in errors if not math.isfinite(e))}
+    report = part_report(obj.Label, part, checks, certificate, freecad_face_names(obj.Source), start)
 
     def work():
         obj.ErrorLower = report["hausdorff"]["lower"]
@@ -948,6 +930,31 @@ def validate_part(obj, max_depth=None):
     if FreeCAD.GuiUp:
         obj.ViewObject.Coloring = True
     return report
+
+
+def part_report(label, part, checks, certificate, names, start):
+    """validate_part's report of a part mesh, its solid checks (with the B-rep's facts added) and its
+    certificate; `names`: freecad_face_names."""
+    facts = {s["index"]: s for s in part.solids}
+    for check in checks:
+        solid = facts.get(check["solid"])
+        check["brep_closed"] = bool(solid and solid["closed"])
+        check["brep_valid"] = bool(solid and solid["valid"])
+        check["brep_volume"] = solid["volume"] if solid else 0.0
+    errors = certificate["triangle_error"].tolist()
+    _, top = certified_error_colours(errors)
+    return {"kind": "part", "label": label, "triangles": part.mesh.triangle_count,
+            "vertices": part.mesh.vertex_count, "faces": len(part.faces), "faces_trimmed": part.faces_trimmed,
+            "faces_skipped": part.faces_skipped, "solids": checks,
+            "distance": certificate_text(certificate, part, names),
+            "certified": certificate["certified"], "hausdorff": certificate["hausdorff"],
+            "face_certificates": [dict(name=face_note_name(face, names), **{k: c.get(k) for k in (
+                "route", "certified", "lower", "upper", "reason")})
+                for face, c in zip(part.faces, certificate["faces"])],
+            "seconds": time.perf_counter() - start,
+            "faces_to_check": faces_to_check(part, certificate, names),
+            "triangle_error": certificate["triangle_error"], "colour_scale_top": top,
+            "uncertified_triangles": sum(1 for e in errors if not math.isfinite(e))}
 
 
 def solid_name(check):
@@ -990,10 +997,11 @@ def run_validation(model, mesh, max_depth, reference_segments=32):
 
 
 def validate_mesh_object(mesh_obj, links, max_depth=None):
-    """Certifies any Mesh object (no (u, v): through a certified reference tessellation) against the
-    exact shape of `links`. Changes nothing in the document."""
+    """Certifies any Mesh object against the exact shape of `links`: a part (is_part_source: solids,
+    shells or trimmed faces) face by face (validate_part_mesh_object); loose untrimmed faces through a
+    certified reference tessellation of their patches (no (u, v) needed). Changes nothing in the
+    document."""
     depth = preferences()["max_depth"] if max_depth is None else max_depth
-    model = whole_shape_model(links, mesh_obj.Label)
     points, facets = mesh_obj.Mesh.Topology
     if not facets:
         raise SagittaError("%s has no triangles" % mesh_obj.Label)
@@ -1001,7 +1009,31 @@ def validate_mesh_object(mesh_obj, links, max_depth=None):
     positions = [tuple(placement.multVec(p)) for p in points]
     mesh = _sagitta.mesh_from_arrays(positions, facets)
     set_library_memory_limit()  # the library's estimates (its reference tessellation, the validation) check it
+    if is_part_source(links):
+        return validate_part_mesh_object(mesh_obj.Label, mesh, links, depth)
+    model = whole_shape_model(links, mesh_obj.Label)
     return run_long("Validating %s" % mesh_obj.Label, lambda: run_validation(model, mesh, depth))
+
+
+def validate_part_mesh_object(label, mesh, links, depth):
+    """A mesh of a whole part (FreeCAD's MeshPart, an imported STL) certified face by face: the library
+    finds its vertices on the part's edges and faces and its triangles on the faces
+    (mesh_on_part_brep, `sagitta validate PART --mesh`), then certifies every face as it certifies
+    Sagitta's own part meshes. Returns part_report's dict ("kind": "part")."""
+    text = part_brep_text(links)
+
+    def measure():  # C++ work only (run_long)
+        try:
+            part = _sagitta.mesh_on_part_brep(text, label, mesh)
+            start = time.perf_counter()
+            checks = _sagitta.check_solids(part.mesh, part.triangle_solid, part.boundary_edges)
+        except (ValueError, MemoryError) as error:
+            raise library_error(error)
+        return part, checks, part_certificate(part, depth), start
+    part, checks, certificate, start = run_long("Validating %s" % label, measure)
+    report = part_report(label, part, checks, certificate, freecad_face_names(links), start)
+    report["unassigned_triangles"] = part.unassigned_triangles
+    return report
 
 
 def whole_shape_model(links, name):

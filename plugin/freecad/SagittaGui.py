@@ -520,7 +520,8 @@ class ValidateCommand:
                 mesh, report = meshes[0], SagittaCore.validate_mesh_object(meshes[0], shapes)
             else:  # FreeCAD's own mesh of the part; not kept when the validation is refused
                 mesh, report = SagittaCore.validate_freecad_mesh(FreeCAD.ActiveDocument, shapes)
-            show_panel(ValidatePanel(mesh.Label, report))
+            # A part's report lists faces to check: the button selects them on the Part object.
+            show_panel(ValidatePanel(mesh.Label, report, shapes if report.get("kind") == "part" else None))
         except Exception as error:
             report_error("Validate", error)
 

@@ -577,6 +577,8 @@ void bind_part(py::module_& m) {
       .def_property_readonly("solids", &part_solids)
       .def_readonly("faces_tessellated", &occt::PartMesh::faces_tessellated)
       .def_readonly("faces_skipped", &occt::PartMesh::faces_skipped)
+      .def_readonly("unassigned_triangles", &occt::PartMesh::unassigned_triangles, "A foreign mesh's triangles on no single face")
+      .def_readonly("welded", &occt::PartMesh::welded, "A foreign mesh's largest vertex move when welding (added to the bounds)")
       .def_readonly("faces_trimmed", &occt::PartMesh::faces_trimmed)
       .def_readonly("edges", &occt::PartMesh::edges)
       .def_readonly("edge_vertices", &occt::PartMesh::edge_vertices)
@@ -609,6 +611,15 @@ void bind_part(py::module_& m) {
       py::arg("brep_text"), py::arg("name"), py::arg("scheme") = "uniform", py::arg("level") = 2,
       py::arg("segments") = py::none(), py::arg("threshold") = py::none(), py::arg("edge_tolerance") = 0.0,
       "mesh_part on a shape's BREP text (FreeCAD: shape.exportBrepToString()); `name` names it in messages");
+  m.def(
+      "mesh_on_part_brep",
+      [](const std::string& text, const std::string& name, const Tessellation& mesh) {
+        py::gil_scoped_release release;
+        return occt::mesh_on_part_brep_string(text, name, mesh);
+      },
+      py::arg("brep_text"), py::arg("name"), py::arg("mesh"),
+      "Any mesh of a part (no (u, v), no face ids) found face by face on the part's B-rep, as a PartMesh to "
+      "certify_part (`sagitta validate PART --mesh`)");
   m.def(
       "fit_part_brep",
       [](const std::string& text, const std::string& name, double target_error, int max_depth) {

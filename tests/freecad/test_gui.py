@@ -151,7 +151,8 @@ def check_defects(watcher):
     import Part
     doc = FreeCAD.newDocument("Defects")
     ctx = {"doc": doc, "face": bezier_source(doc), "disk": doc.addObject("Part::Feature", "Disk")}
-    ctx["disk"].Shape = Part.Face(Part.Wire(Part.makeCircle(5)))  # one trimmed face: nothing to certify
+    # A face on an offset surface (no exact rational form): Validate refuses it.
+    ctx["disk"].Shape = Part.OffsetSurface(Part.Cylinder(), 1.0).toShape(0.0, 3.0, 0.0, 2.0)
     doc.recompute()
     for step in (creation_panel_cancel_and_ok, refused_panel_edit, refused_property_edit, fit_target_zero,
                  refused_validate, malformed_import, colours_after_reopen):

@@ -2003,4 +2003,8 @@ PartMesh mesh_on_part_file(const std::string& path, const Tessellation& mesh, co
   return mesh_on_shape(read_cad_shape(path), path + " with " + mesh_name, mesh);
 }
 
+PartMesh mesh_on_part_brep_string(const std::string& brep_text, const std::string& name, const Tessellation& mesh) {
+  return mesh_on_shape(read_brep_shape(brep_text, name), name, mesh);
+}
+
 }  // namespace sagitta::occt

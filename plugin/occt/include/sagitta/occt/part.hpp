@@ -158,5 +158,7 @@ PartMesh brepmesh_part_brep_string(const std::string& brep_text, const std::stri
 // A face whose edges have no mesh vertex at a B-rep vertex, or with a pole, is listed as skipped with
 // the reason; triangles on no face are counted (PartMesh::unassigned_triangles).
 PartMesh mesh_on_part_file(const std::string& path, const Tessellation& mesh, const std::string& mesh_name);
+// The same for an OCCT BREP text (FreeCAD: a Mesh object against the Part it approximates).
+PartMesh mesh_on_part_brep_string(const std::string& brep_text, const std::string& name, const Tessellation& mesh);
 
 }  // namespace sagitta::occt
