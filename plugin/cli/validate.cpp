@@ -172,6 +172,7 @@ void print_part_validation(const occt::PartMesh& part, const app::PartValidation
     return;
   }
   std::cout << "not certified: " << cert.faces_certified << " of " << part.faces.size() << " faces certified";
+  if (!cert.note.empty()) std::cout << " (" << cert.note << ")";
   if (cert.faces_certified > 0) std::cout << " (the certified faces' largest upper bound " << cert.certified_faces_upper << ")";
   std::cout << "; largest lower bound over all faces " << cert.distance.hausdorff.lower << "; reasons in --json\n";
 }

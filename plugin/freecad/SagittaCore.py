@@ -885,6 +885,8 @@ def certificate_text(certificate, part, names):
         return "certified"
     faces = ["%s: %s" % (face_note_name(face, names), c["reason"])
              for face, c in zip(part.faces, certificate["faces"]) if not c["certified"]]
+    if not faces and certificate.get("note"):  # every face certified, a foreign mesh's triangle on none
+        return "not certified: " + certificate["note"]
     return "not certified (%d of %d faces): %s" % (len(faces), len(part.faces), "; ".join(faces))
 
 

@@ -66,6 +66,19 @@ PY
   [[ $code == 3 ]] || fail "validate --mesh with a triangle missing: exit $code, expected 3"
   [[ $(field "$tmp/vc.json" "not d['certified'] and d['certificate']['faces_certified'] == 17 and d['validation']['crack_edges'] > 0") == True ]] \
     || fail "validate --mesh with a triangle missing: not reported"
+  # A triangle across the part (its corners on different faces) is on no face's certificate: the
+  # mesh is not certified although every face is.
+  python3 - "$tmp/pp.stl" "$tmp/extra.stl" <<'PY'
+import struct, sys
+data = open(sys.argv[1], "rb").read()
+n = struct.unpack("<I", data[80:84])[0]
+corner = lambda t: data[84 + 50 * t + 12:84 + 50 * t + 24]
+extra = b"\0" * 12 + corner(0) + corner(n // 3) + corner(2 * n // 3) + b"\0\0"
+open(sys.argv[2], "wb").write(data[:80] + struct.pack("<I", n + 1) + data[84:] + extra)
+PY
+  "$SAGITTA" validate "$part" --mesh "$tmp/extra.stl" --json "$tmp/ve.json" >/dev/null || fail "validate --mesh with a stray triangle: exit $?"
+  [[ $(field "$tmp/ve.json" "not d['certified'] and d['unassigned_triangles'] == 1 and d['certificate']['faces_certified'] == 18 and d['certificate']['hausdorff']['upper'] is None and 'no single face' in d['certificate']['note']") == True ]] \
+    || fail "validate --mesh with a stray triangle: certified"
 fi
 
 # Malformed CAD input: one line naming the file, exit 2.

@@ -615,6 +615,16 @@ PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& o
     cert.patches += static_cast<uint64_t>(f.patch_count);
   }
   fold_faces(cert);
+  if (part.unassigned_triangles > 0) {
+    // A foreign mesh's triangles on no single face are in no face's certificate: the mesh as read
+    // has no certified upper bound (its lower bounds still hold).
+    cert.all_certified = false;
+    cert.note = std::to_string(part.unassigned_triangles) + " triangles of the mesh lie on no single face of the part";
+    for (DistanceInterval* i : {&cert.distance.mesh_to_surface, &cert.distance.surface_to_mesh, &cert.distance.hausdorff}) {
+      i->upper = kInf;
+      i->certified = false;
+    }
+  }
   cert.seconds = clock.seconds();
   return cert;
 }
@@ -637,6 +647,7 @@ nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCerti
     faces.push_back(std::move(row));
   }
   j["faces_not_certified"] = missing;
+  if (!c.note.empty()) j["note"] = c.note;
   j["faces"] = faces;
   j["certified_faces_upper"] = c.certified_faces_upper;
   j["certified_triangles"] = c.triangles;

@@ -80,7 +80,8 @@ struct PartCertificate {
   // Max over the faces: lower bounds over every face (each is a proven lower bound of its face's
   // distance), upper bounds certified only when every face is (+infinity otherwise).
   DistanceReport distance;
-  bool all_certified = false;  // every face of the part is certified
+  bool all_certified = false;  // every face of the part is certified (and, for a foreign mesh, every triangle is on a face)
+  std::string note;            // why not certified although every face is ("" otherwise)
   double certified_faces_upper = 0.0;  // the largest upper bound among the certified faces
   // Per triangle of the whole part mesh: the certified bound, +infinity outside the certified faces.
   std::vector<double> triangle_upper;
