@@ -1291,6 +1291,43 @@ bool split_crossing_chords(PartBuilder& b, std::vector<std::vector<double>>& ext
   return !faces.empty();
 }
 
+// Face g of the part: its report fields and patches into a new PartFace, `mesh` fills its triangles
+// (false and pf.reason when it cannot); then the part's face, solid and skip counts. OCCT failures on
+// the face become its reason.
+void add_face(PartBuilder& b, const FaceGeometry& g, const std::function<bool(PartFace&)>& mesh) {
+  PartFace pf;
+  pf.face_index = g.report.face_index;
+  pf.name = g.report.name;
+  pf.surface_type = g.report.surface_type;
+  pf.trimmed = g.report.status == "trimmed";
+  pf.solid = g.solid;
+  pf.status = "skipped";
+  if (g.patches.empty()) {
+    pf.reason = g.report.reason;
+  } else {
+    pf.first_patch = static_cast<int>(b.out.model.patches.size());
+    pf.patch_count = static_cast<int>(g.patches.size());
+    pf.u_breaks = g.report.u_breaks, pf.v_breaks = g.report.v_breaks;
+    pf.reversed = g.reversed;
+    pf.u_period = g.u_period, pf.v_period = g.v_period;
+    b.out.model.patches.insert(b.out.model.patches.end(), g.patches.begin(), g.patches.end());
+    try {
+      if (mesh(pf)) pf.status = "tessellated";
+    } catch (const Standard_Failure& e) {
+      pf.reason = std::string("OCCT failed on the face (") + e.GetMessageString() + ")";
+    }
+  }
+  if (pf.status == "skipped" && pf.reason.empty()) pf.reason = "no triangles";
+  b.out.faces_tessellated += pf.status == "tessellated";
+  b.out.faces_skipped += pf.status == "skipped";
+  b.out.faces_trimmed += pf.trimmed;
+  if (pf.solid >= 0) {
+    ++b.out.solids[pf.solid].faces;
+    b.out.solids[pf.solid].triangles += pf.triangles;
+  }
+  b.out.faces.push_back(pf);
+}
+
 // One pass over the part: vertices, edges, then every face (mesh_shape repeats it with refined
 // edges while chords cross).
 void build_part(PartBuilder& b) {
@@ -1298,37 +1335,7 @@ void build_part(PartBuilder& b) {
   build_edges(b);
   for (FaceGeometry& g : geometry) {
     budget::check("meshing the part");  // per face: a cancel waits for one face's mesh at most
-    PartFace pf;
-    pf.face_index = g.report.face_index;
-    pf.name = g.report.name;
-    pf.surface_type = g.report.surface_type;
-    pf.trimmed = g.report.status == "trimmed";
-    pf.solid = g.solid;
-    pf.status = "skipped";
-    if (g.patches.empty()) {
-      pf.reason = g.report.reason;
-    } else {
-      pf.first_patch = static_cast<int>(b.out.model.patches.size());
-      pf.patch_count = static_cast<int>(g.patches.size());
-      pf.u_breaks = g.report.u_breaks, pf.v_breaks = g.report.v_breaks;
-      pf.reversed = g.reversed;
-      pf.u_period = g.u_period, pf.v_period = g.v_period;
-      b.out.model.patches.insert(b.out.model.patches.end(), g.patches.begin(), g.patches.end());
-      try {
-        if (mesh_face(b, g, pf)) pf.status = "tessellated";
-      } catch (const Standard_Failure& e) {
-        pf.reason = std::string("OCCT failed on the face (") + e.GetMessageString() + ")";
-      }
-    }
-    if (pf.status == "skipped" && pf.reason.empty()) pf.reason = "no triangles";
-    b.out.faces_tessellated += pf.status == "tessellated";
-    b.out.faces_skipped += pf.status == "skipped";
-    b.out.faces_trimmed += pf.trimmed;
-    if (pf.solid >= 0) {
-      ++b.out.solids[pf.solid].faces;
-      b.out.solids[pf.solid].triangles += pf.triangles;
-    }
-    b.out.faces.push_back(pf);
+    add_face(b, g, [&](PartFace& pf) { return mesh_face(b, g, pf); });
   }
 }
 
@@ -1352,6 +1359,17 @@ void check_part_memory(const std::vector<FaceGeometry>& geometry, const SchemeSp
                        "lower --level or --segments, or raise --max-memory");
 }
 
+// Every face's geometry (face_geometry); throws InputError when the shape has no face.
+std::vector<FaceGeometry> faces_geometry(const ShapeIndex& x, const std::string& name, const CadOptions& cad) {
+  if (x.faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
+  std::vector<FaceGeometry> geometry;
+  for (int f = 0; f < x.faces.Extent(); ++f) {
+    budget::check("converting the part's faces");
+    geometry.push_back(face_geometry(x, f, name, cad));
+  }
+  return geometry;
+}
+
 PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const PartOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   check_scheme(options, name);
@@ -1359,12 +1377,7 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
   out.name = name;
   out.model.name = name;
   const ShapeIndex x = index_shape(shape);
-  if (x.faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
-  std::vector<FaceGeometry> geometry;
-  for (int f = 0; f < x.faces.Extent(); ++f) {
-    budget::check("converting the part's faces");
-    geometry.push_back(face_geometry(x, f, name, options.cad));
-  }
+  std::vector<FaceGeometry> geometry = faces_geometry(x, name, options.cad);
   check_part_memory(geometry, options.scheme, name);
   for (FaceGeometry& g : geometry) {
     budget::check("tessellating the part's faces");
@@ -1593,12 +1606,7 @@ PartMesh foreign_part(const TopoDS_Shape& shape, const std::string& name, bool o
   out.name = name;
   out.model.name = name;
   const ShapeIndex x = index_shape(shape);
-  if (x.faces.Extent() == 0) throw InputError(name + ": the shape has no faces");
-  std::vector<FaceGeometry> geometry;
-  for (int f = 0; f < x.faces.Extent(); ++f) {
-    budget::check("converting the part's faces");
-    geometry.push_back(face_geometry(x, f, name, CadOptions{}));
-  }
+  std::vector<FaceGeometry> geometry = faces_geometry(x, name, CadOptions{});
   out.solids = solid_facts(x, occt_solid_facts);
   const PartOptions options;
   const std::vector<std::vector<double>> extra(x.edges.Extent());
@@ -1611,37 +1619,7 @@ PartMesh foreign_part(const TopoDS_Shape& shape, const std::string& name, bool o
   prepare(b, part_size);
   for (FaceGeometry& g : geometry) {
     budget::check("reading the mesh's faces");
-    PartFace pf;
-    pf.face_index = g.report.face_index;
-    pf.name = g.report.name;
-    pf.surface_type = g.report.surface_type;
-    pf.trimmed = g.report.status == "trimmed";
-    pf.solid = g.solid;
-    pf.status = "skipped";
-    if (g.patches.empty()) {
-      pf.reason = g.report.reason;
-    } else {
-      pf.first_patch = static_cast<int>(out.model.patches.size());
-      pf.patch_count = static_cast<int>(g.patches.size());
-      pf.u_breaks = g.report.u_breaks, pf.v_breaks = g.report.v_breaks;
-      pf.reversed = g.reversed;
-      pf.u_period = g.u_period, pf.v_period = g.v_period;
-      out.model.patches.insert(out.model.patches.end(), g.patches.begin(), g.patches.end());
-      try {
-        if (take(b, g, pf, part_size)) pf.status = "tessellated";
-      } catch (const Standard_Failure& e) {
-        pf.reason = std::string("OCCT failed on the face (") + e.GetMessageString() + ")";
-      }
-    }
-    if (pf.status == "skipped" && pf.reason.empty()) pf.reason = "no triangles";
-    out.faces_tessellated += pf.status == "tessellated";
-    out.faces_skipped += pf.status == "skipped";
-    out.faces_trimmed += pf.trimmed;
-    if (pf.solid >= 0) {
-      ++out.solids[pf.solid].faces;
-      out.solids[pf.solid].triangles += pf.triangles;
-    }
-    out.faces.push_back(pf);
+    add_face(b, g, [&](PartFace& pf) { return take(b, g, pf, part_size); });
   }
   out.edges = x.edges.Extent();
   std::sort(out.boundary_edges.begin(), out.boundary_edges.end());
