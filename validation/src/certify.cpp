@@ -55,6 +55,13 @@ H lerp(const H& a, const H& b, double t) {
 
 double norm3(const H& h) { return norm(h[0], h[1], h[2]); }
 
+// A patch moved so its first control point is the origin (for project_shifted).
+BezierPatch shifted_patch(const BezierPatch& patch) {
+  BezierPatch shifted = patch;
+  for (Vec3& p : shifted.points) p -= patch.points[0];
+  return shifted;
+}
+
 // Per patch data: homogeneous control points relative to a local origin and the magnitudes the
 // rounding bound needs.
 struct PatchData {
@@ -65,6 +72,9 @@ struct PatchData {
   double hmag = 0.0;  // max |w (P - o)|
   double wmin = 1.0, wmax = 1.0;
   double lipschitz = 0.0;  // >= max |dS/du| + |dS/dv| over the domain
+  BezierPatch shifted;     // the patch moved so its first control point is the origin (project_shifted)
+  // Projection of x onto the patch seeded at q: project() without copying the patch.
+  Vec2 project(const Vec3& x, Vec2 q) const;
 };
 
 PatchData make_patch_data(const BezierPatch& patch) {
@@ -106,6 +116,7 @@ PatchData make_patch_data(const BezierPatch& patch) {
     }
   }
   d.lipschitz = (du + dv) * (1.0 + 1e-12);
+  d.shifted = shifted_patch(patch);
   return d;
 }
 
@@ -125,14 +136,35 @@ struct Triples {
   int at(int a0, int a1) const { return index[static_cast<size_t>(a0 * (s + 1) + a1)]; }
 };
 
+// Binomial coefficients C(a, b) for a <= 2 kMaxDegree + 1, the values of binomial() (exact integers).
+struct BinomialTable {
+  static constexpr int kSize = 2 * kMaxDegree + 2;
+  std::array<double, kSize * kSize> c{};
+  BinomialTable() {
+    for (int a = 0; a < kSize; ++a) {
+      for (int b = 0; b < kSize; ++b) c[static_cast<size_t>(a * kSize + b)] = binomial(a, b);
+    }
+  }
+  double operator()(int a, int b) const { return c[static_cast<size_t>(a * kSize + b)]; }
+};
+const BinomialTable& binomials() {
+  static const BinomialTable table;
+  return table;
+}
+
 // Scratch space reused across triangles by one thread.
 struct Scratch {
   int n = -1, m = -1;
-  Triples tu, tv, tn;
+  Triples tu, tv, tn, tn1;  // degrees n, m, n + m, n + m + 1
   std::vector<H> qa;   // per u-triple: m + 1 points
   std::vector<H> r;    // per (u-triple, v-triple): the blossom value
   std::vector<H> coef; // per degree-(n + m) triple
   std::vector<H> work;
+  // coef holds the composition of `coef_patch` with the (u, v) triangle coef_q (wmin_poly its
+  // smallest weight coefficient): a repeated composed_bound over the same (u, v) reuses it.
+  const PatchData* coef_patch = nullptr;
+  Vec2 coef_q[3];
+  double coef_wmin = 0.0;
   void prepare(int n_, int m_) {
     if (n == n_ && m == m_) return;
     n = n_;
@@ -140,10 +172,12 @@ struct Scratch {
     tu = Triples(n);
     tv = Triples(m);
     tn = Triples(n + m);
+    tn1 = Triples(n + m + 1);
     qa.assign(tu.list.size() * static_cast<size_t>(m + 1), H{});
     r.assign(tu.list.size() * tv.list.size(), H{});
     coef.assign(tn.list.size(), H{});
     work.assign(static_cast<size_t>(std::max(n, m) + 1), H{});
+    coef_patch = nullptr;
   }
 };
 
@@ -190,6 +224,7 @@ void blossom(const PatchData& P, const Vec2 q[3], Scratch& s) {
 double triangular_coefficients(const PatchData& P, Scratch& s) {
   const int n = P.n, N = P.n + P.m;
   const size_t nv = s.tv.list.size();
+  const BinomialTable& binomial = binomials();
   const double inv_total = 1.0 / binomial(N, n);
   double wmin_poly = kInf;
   for (size_t g = 0; g < s.tn.list.size(); ++g) {
@@ -217,8 +252,13 @@ double triangular_coefficients(const PatchData& P, Scratch& s) {
 double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scratch& s) {
   const int n = P.n, m = P.m, N = n + m;
   s.prepare(n, m);
-  blossom(P, q, s);
-  double wmin_poly = triangular_coefficients(P, s);
+  if (s.coef_patch != &P || s.coef_q[0] != q[0] || s.coef_q[1] != q[1] || s.coef_q[2] != q[2]) {
+    blossom(P, q, s);
+    s.coef_wmin = triangular_coefficients(P, s);
+    s.coef_patch = &P;
+    std::copy(q, q + 3, s.coef_q);
+  }
+  double wmin_poly = s.coef_wmin;
   Vec3 Xl[3];
   double xmag = 0.0;
   for (int l = 0; l < 3; ++l) {
@@ -238,7 +278,7 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
   } else {
     // N(b) - W(b) X(b) has degree N + 1: E_g = sum_l g_l / (N + 1) (Nc_{g - e_l} - Wc_{g - e_l} X_l).
     const Triples& t1 = s.tn;  // degree N indices
-    const Triples up(N + 1);
+    const Triples& up = s.tn1;
     for (const auto& g : up.list) {
       Vec3 e(0.0);
       for (int l = 0; l < 3; ++l) {
@@ -262,20 +302,55 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
   return bound >= 0.0 ? bound : kInf;  // NaN (an overflow on the way) proves nothing
 }
 
+// De Casteljau on d + 1 homogeneous points (overwritten); value and derivative d/dt. The same
+// operations as evaluate_with_derivatives (kernels/src/evaluate.cpp), on the stack.
+void curve_with_derivative(H* pts, int d, double t, H& value, H& derivative) {
+  for (int r = 1; r < d; ++r) {
+    for (int k = 0; k <= d - r; ++k) {
+      for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
+    }
+  }
+  for (int c = 0; c < 4; ++c) {
+    value[c] = (1.0 - t) * pts[0][c] + t * pts[1][c];
+    derivative[c] = d * (pts[1][c] - pts[0][c]);
+  }
+}
+
+// evaluate_with_derivatives without heap allocations: bit for bit the same result.
+SurfacePointEval evaluate_with_derivatives_local(const BezierPatch& patch, double u, double v) {
+  const int n = patch.degree_u, m = patch.degree_v;
+  H along_v[kMaxDegree + 1], rows[kMaxDegree + 1], drows[kMaxDegree + 1];
+  for (int i = 0; i <= n; ++i) {
+    for (int j = 0; j <= m; ++j) {
+      const double w = patch.weight(i, j);
+      const Vec3& p = patch.at(i, j);
+      along_v[j] = {w * p.x, w * p.y, w * p.z, w};
+    }
+    curve_with_derivative(along_v, m, v, rows[i], drows[i]);
+  }
+  H h, hu, hv, unused;
+  curve_with_derivative(rows, n, u, h, hu);
+  curve_with_derivative(drows, n, u, hv, unused);
+  const auto point = [](const H& x) { return Vec3(x[0], x[1], x[2]) / x[3]; };
+  SurfacePointEval e;
+  e.position = point(h);
+  e.du = (Vec3(hu[0], hu[1], hu[2]) - e.position * hu[3]) / h[3];
+  e.dv = (Vec3(hv[0], hv[1], hv[2]) - e.position * hv[3]) / h[3];
+  return e;
+}
+
 // Damped Gauss-Newton projection of x onto the patch, seeded at q, clamped to the domain; a step is
 // accepted only when it brings the point closer (halved otherwise), so the result is never worse
 // than the seed (beyond rounding, in the final steps below). Any result is acceptable to the
 // callers (they only need some surface point).
-Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
-  // Iterate on the patch moved so its first control point is the origin: in absolute coordinates
-  // far from the origin (1e8) the evaluation noise (~ulp(|x|)) stalls the descent test well before
-  // the projection, and the bounds built on the result then change with a translation of the model.
-  // Any parameters are sound; this makes them (nearly) translation invariant.
-  const Vec3 origin = patch_in.points[0];
-  BezierPatch patch = patch_in;
-  for (Vec3& p : patch.points) p -= origin;
-  const Vec3 x = x_in - origin;
-  SurfacePointEval e = evaluate_with_derivatives(patch, q.x, q.y);
+//
+// Iterates on the patch moved so its first control point is the origin (`patch`, with x moved
+// alike): in absolute coordinates far from the origin (1e8) the evaluation noise (~ulp(|x|)) stalls
+// the descent test well before the projection, and the bounds built on the result then change with
+// a translation of the model. Any parameters are sound; this makes them (nearly) translation
+// invariant.
+Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q) {
+  SurfacePointEval e = evaluate_with_derivatives_local(patch, q.x, q.y);
   double best = norm(x - e.position);
   for (int it = 0; it < 12; ++it) {
     const Vec3 r = x - e.position;
@@ -290,7 +365,7 @@ Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
       // scaled model gave bounds 1e-9 apart). Here a plain Gauss-Newton step is kept while it
       // shrinks the gradient (r . du, r . dv), which converges to full precision.
       const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
-      const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
+      const SurfacePointEval ne = evaluate_with_derivatives_local(patch, next.x, next.y);
       const Vec3 nr = x - ne.position;
       if (norm(Vec2(glm::dot(ne.du, nr), glm::dot(ne.dv, nr))) >= norm(Vec2(ru, rv))) break;
       q = next;
@@ -300,7 +375,7 @@ Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
     bool moved = false;
     for (int half = 0; half < 20 && !moved; ++half, step *= 0.5) {
       const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
-      const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
+      const SurfacePointEval ne = evaluate_with_derivatives_local(patch, next.x, next.y);
       const double d = norm(x - ne.position);
       if (d < best) {
         best = d;
@@ -314,9 +389,37 @@ Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
   return q;
 }
 
+Vec2 project(const BezierPatch& patch, const Vec3& x, Vec2 q) {
+  return project_shifted(shifted_patch(patch), x - patch.points[0], q);
+}
+
+Vec2 PatchData::project(const Vec3& x, Vec2 q) const { return project_shifted(shifted, x - patch->points[0], q); }
+
+// S(q): de_casteljau<double> (kernels/src/evaluate.cpp) on the stack, the same operations.
 Vec3 eval(const BezierPatch& patch, Vec2 q) {
-  const auto p = de_casteljau<double>(patch, q.x, q.y);
-  return Vec3(p[0], p[1], p[2]);
+  const int n = patch.degree_u, m = patch.degree_v;
+  const double u = q.x, v = q.y;
+  H rowpts[kMaxDegree + 1], work[kMaxDegree + 1];
+  for (int i = 0; i <= n; ++i) {
+    for (int j = 0; j <= m; ++j) {
+      const double w = patch.weight(i, j);
+      const Vec3& p = patch.at(i, j);
+      work[j] = {w * p.x, w * p.y, w * p.z, w};
+    }
+    for (int r = 1; r <= m; ++r) {
+      for (int j = 0; j <= m - r; ++j) {
+        for (int c = 0; c < 4; ++c) work[j][c] = (1.0 - v) * work[j][c] + v * work[j + 1][c];
+      }
+    }
+    rowpts[i] = work[0];
+  }
+  for (int r = 1; r <= n; ++r) {
+    for (int i = 0; i <= n - r; ++i) {
+      for (int c = 0; c < 4; ++c) rowpts[i][c] = (1.0 - u) * rowpts[i][c] + u * rowpts[i + 1][c];
+    }
+  }
+  const H& h = rowpts[0];
+  return Vec3(h[0] / h[3], h[1] / h[3], h[2] / h[3]);
 }
 
 // Distance from x to an axis-aligned box (0 inside).
@@ -435,7 +538,7 @@ void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin,
   Vec2 qp[3];
   double residual[3];
   for (int i = 0; i < 3; ++i) {
-    qp[i] = project(*P.patch, X[i], q[i]);
+    qp[i] = P.project(X[i], q[i]);
     residual[i] = norm(X[i] - eval(*P.patch, qp[i]));
   }
   if (!own_uv_only) b.m2s = std::min(lin, composed_bound(P, qp, X, s));
@@ -448,7 +551,7 @@ void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin,
       const PatchData& O = (*others.data)[o];
       Vec2 qo[3];
       for (int i = 0; i < 3; ++i) {
-        qo[i] = i == 0 ? project_unseeded(*O.patch, X[i]) : project(*O.patch, X[i], qo[i - 1]);
+        qo[i] = i == 0 ? project_unseeded(*O.patch, X[i]) : O.project(X[i], qo[i - 1]);
         residual[i] = std::min(residual[i], norm(X[i] - eval(*O.patch, qo[i])));
       }
       b.m2s = std::min(b.m2s, composed_bound(O, qo, X, s));
@@ -921,11 +1024,12 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
     if ((t & 1023u) == 0) budget::check("validation");  // a million triangles take seconds here
     const auto T = triangle_corners(mesh, t);
     const auto& uv = mesh.triangle_uv[t];
-    const BezierPatch& patch = *pd[mesh.triangle_patch[t]].patch;
+    const PatchData& P = pd[mesh.triangle_patch[t]];
+    const BezierPatch& patch = *P.patch;
     const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
     for (const Vec3& b : bs) {
       const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
-      const Vec2 q = project(patch, x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
+      const Vec2 q = P.project(x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
       const double e = norm(x - eval(patch, q));
       if (e >= est.value[t]) {
         est.value[t] = e;
