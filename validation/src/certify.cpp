@@ -159,7 +159,8 @@ struct Scratch {
   std::vector<H> qa;   // per u-triple: m + 1 points
   std::vector<H> r;    // per (u-triple, v-triple): the blossom value
   std::vector<H> coef; // per degree-(n + m) triple
-  std::vector<H> work;
+  // Per degree-(n + m) triple: the blossom values (indices into r) and Vandermonde weights it sums.
+  std::vector<std::vector<std::pair<size_t, double>>> terms;
   // coef holds the composition of `coef_patch` with the (u, v) triangle coef_q (wmin_poly its
   // smallest weight coefficient): a repeated composed_bound over the same (u, v) reuses it.
   const PatchData* coef_patch = nullptr;
@@ -176,68 +177,73 @@ struct Scratch {
     qa.assign(tu.list.size() * static_cast<size_t>(m + 1), H{});
     r.assign(tu.list.size() * tv.list.size(), H{});
     coef.assign(tn.list.size(), H{});
-    work.assign(static_cast<size_t>(std::max(n, m) + 1), H{});
     coef_patch = nullptr;
+    const BinomialTable& binomial = binomials();
+    const double inv_total = 1.0 / binomial(n + m, n);
+    terms.assign(tn.list.size(), {});
+    for (size_t g = 0; g < tn.list.size(); ++g) {
+      const auto& al = tn.list[g];
+      for (int a0 = 0; a0 <= std::min(al[0], n); ++a0) {
+        for (int a1 = 0; a1 <= std::min(al[1], n - a0); ++a1) {
+          const int a2 = n - a0 - a1;
+          if (a2 > al[2]) continue;
+          const double wgt = binomial(al[0], a0) * binomial(al[1], a1) * binomial(al[2], a2) * inv_total;
+          const size_t index = static_cast<size_t>(tu.at(a0, a1)) * tv.list.size() + static_cast<size_t>(tv.at(al[0] - a0, al[1] - a1));
+          terms[g].emplace_back(index, wgt);
+        }
+      }
+    }
   }
 };
+
+// One de Casteljau level with argument t on points w[0 .. count] (count + 1 of them, count left).
+void casteljau_level(H* w, int count, double t) {
+  for (int i = 0; i < count; ++i) w[i] = lerp(w[i], w[i + 1], t);
+}
+
+// The blossom of the degree-d points `pts` at every argument list x0^a0 x1^a1 x2^(d - a0 - a1), in
+// the order of Triples(d), into out[stride * k] (k the triple's position). Each value is the
+// de Casteljau evaluation with the arguments in that order; the levels of a shared prefix (x0^a0,
+// then x0^a0 x1^a1) are computed once, so every value is bit for bit the plain evaluation's.
+void blossom_all(const H* pts, int d, const double x[3], H* out, size_t stride) {
+  H w0[kMaxDegree + 1], w1[kMaxDegree + 1], w2[kMaxDegree + 1];
+  std::copy(pts, pts + d + 1, w0);
+  size_t k = 0;
+  for (int a0 = 0; a0 <= d; ++a0) {
+    if (a0 > 0) casteljau_level(w0, d + 1 - a0, x[0]);
+    std::copy(w0, w0 + d + 1 - a0, w1);
+    for (int a1 = 0; a0 + a1 <= d; ++a1) {
+      if (a1 > 0) casteljau_level(w1, d + 1 - a0 - a1, x[1]);
+      std::copy(w1, w1 + d + 1 - a0 - a1, w2);
+      for (int level = a0 + a1 + 1; level <= d; ++level) casteljau_level(w2, d + 1 - level, x[2]);
+      out[stride * k++] = w2[0];
+    }
+  }
+}
 
 // u-blossom of every column for each u-triple, then the v-blossom of those for each (u-triple,
 // v-triple), into s.r.
 void blossom(const PatchData& P, const Vec2 q[3], Scratch& s) {
   const int n = P.n, m = P.m;
   const size_t nu = s.tu.list.size(), nv = s.tv.list.size();
-  double args[2 * kMaxDegree + 2];
-  // u-blossom of every column for each u-triple.
-  for (size_t a = 0; a < nu; ++a) {
-    const auto& t = s.tu.list[a];
-    int c = 0;
-    for (int l = 0; l < 3; ++l) {
-      for (int k = 0; k < t[l]; ++k) args[c++] = q[l].x;
-    }
-    for (int j = 0; j <= m; ++j) {
-      for (int i = 0; i <= n; ++i) s.work[i] = P.h[static_cast<size_t>(i * (m + 1) + j)];
-      for (int level = 1; level <= n; ++level) {
-        for (int i = 0; i <= n - level; ++i) s.work[i] = lerp(s.work[i], s.work[i + 1], args[level - 1]);
-      }
-      s.qa[a * (m + 1) + j] = s.work[0];
-    }
+  const double xu[3] = {q[0].x, q[1].x, q[2].x}, xv[3] = {q[0].y, q[1].y, q[2].y};
+  H column[kMaxDegree + 1];
+  for (int j = 0; j <= m; ++j) {
+    for (int i = 0; i <= n; ++i) column[i] = P.h[static_cast<size_t>(i * (m + 1) + j)];
+    blossom_all(column, n, xu, &s.qa[static_cast<size_t>(j)], static_cast<size_t>(m + 1));
   }
-  // v-blossom for each (u-triple, v-triple).
-  for (size_t b = 0; b < nv; ++b) {
-    const auto& t = s.tv.list[b];
-    int c = 0;
-    for (int l = 0; l < 3; ++l) {
-      for (int k = 0; k < t[l]; ++k) args[c++] = q[l].y;
-    }
-    for (size_t a = 0; a < nu; ++a) {
-      for (int j = 0; j <= m; ++j) s.work[j] = s.qa[a * (m + 1) + j];
-      for (int level = 1; level <= m; ++level) {
-        for (int j = 0; j <= m - level; ++j) s.work[j] = lerp(s.work[j], s.work[j + 1], args[level - 1]);
-      }
-      s.r[a * nv + b] = s.work[0];
-    }
-  }
+  for (size_t a = 0; a < nu; ++a) blossom_all(&s.qa[a * (m + 1)], m, xv, &s.r[a * nv], 1);
 }
 
 // Triangular coefficients of degree n + m from the blossom values (into s.coef); returns the
 // smallest weight coefficient.
-double triangular_coefficients(const PatchData& P, Scratch& s) {
-  const int n = P.n, N = P.n + P.m;
-  const size_t nv = s.tv.list.size();
-  const BinomialTable& binomial = binomials();
-  const double inv_total = 1.0 / binomial(N, n);
+double triangular_coefficients(Scratch& s) {
   double wmin_poly = kInf;
   for (size_t g = 0; g < s.tn.list.size(); ++g) {
-    const auto& al = s.tn.list[g];
     H acc{0, 0, 0, 0};
-    for (int a0 = 0; a0 <= std::min(al[0], n); ++a0) {
-      for (int a1 = 0; a1 <= std::min(al[1], n - a0); ++a1) {
-        const int a2 = n - a0 - a1;
-        if (a2 > al[2]) continue;
-        const double wgt = binomial(al[0], a0) * binomial(al[1], a1) * binomial(al[2], a2) * inv_total;
-        const H& v = s.r[static_cast<size_t>(s.tu.at(a0, a1)) * nv + static_cast<size_t>(s.tv.at(al[0] - a0, al[1] - a1))];
-        for (int c = 0; c < 4; ++c) acc[c] += wgt * v[c];
-      }
+    for (const auto& [index, wgt] : s.terms[g]) {
+      const H& v = s.r[index];
+      for (int c = 0; c < 4; ++c) acc[c] += wgt * v[c];
     }
     s.coef[g] = acc;
     wmin_poly = std::min(wmin_poly, acc[3]);
@@ -254,7 +260,7 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
   s.prepare(n, m);
   if (s.coef_patch != &P || s.coef_q[0] != q[0] || s.coef_q[1] != q[1] || s.coef_q[2] != q[2]) {
     blossom(P, q, s);
-    s.coef_wmin = triangular_coefficients(P, s);
+    s.coef_wmin = triangular_coefficients(s);
     s.coef_patch = &P;
     std::copy(q, q + 3, s.coef_q);
   }
@@ -527,6 +533,8 @@ struct LeafCorners {
 struct LeafBounds {
   double m2s = 0.0, s2m = 0.0;
   double m2s_seen = 0.0, s2m_seen = 0.0;
+  bool projected = false;  // qp holds the corners' projections onto the own patch
+  Vec2 qp[3];
 };
 
 // Mesh->surface: the leaf's corners matched to their projections on the surface; `lin` is the
@@ -541,6 +549,8 @@ void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin,
     qp[i] = P.project(X[i], q[i]);
     residual[i] = norm(X[i] - eval(*P.patch, qp[i]));
   }
+  b.projected = true;
+  std::copy(qp, qp + 3, b.qp);
   if (!own_uv_only) b.m2s = std::min(lin, composed_bound(P, qp, X, s));
   if (b.m2s > tau && !others.empty()) {
     // The leaf matched to another patch: sound for the distance to the model, and the only
@@ -606,18 +616,30 @@ void bound_surface_to_mesh(const PatchData& P, const LeafCorners& c, const std::
 }
 
 // Refines one triangle; `tau` is the level below which a leaf is accepted.
+//
+// Leaves are refined largest bound first. A leaf that is not done is still kept as it is (not
+// refined) when refining it could change neither result:
+//  - each of its bounds is at most the triangle's bound so far in that direction (from leaves kept
+//    before it). Every kept leaf is a final leaf of the full refinement too, so the triangle's bounds
+//    are the maxima over a subset of the full refinement's final leaves: tighter or equal;
+//  - its bounds are below the lower-bound candidates found so far: a point of the leaf lies within
+//    `lin` of its own-(u, v) surface point (projections start there and never end farther), and a
+//    surface point over it within b.s2m of the mesh, so its sub-leaves' corners cannot beat them.
 TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv, const std::array<Vec3, 3>& T,
                                double tau, double target_ratio, int max_depth, Scratch& s, bool s2m_only = false,
                                const std::vector<std::array<Vec3, 3>>* s2m_targets = nullptr,
                                const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest = {},
                                const OtherPatches& others = {}, bool own_uv_only = false) {
   TriangleResult res;
-  std::vector<Leaf> stack;
-  stack.push_back({{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}, 0});
-  while (!stack.empty()) {
+  struct Evaluated {
+    Leaf leaf;
+    LeafBounds b;
+    double lin = 0.0;
+    double key() const { return std::max(b.m2s, b.s2m); }
+    bool operator<(const Evaluated& o) const { return key() < o.key(); }
+  };
+  const auto evaluate = [&](const Leaf& leaf) {
     budget::check("validation");
-    const Leaf leaf = stack.back();
-    stack.pop_back();
     ++res.leaves;
     LeafCorners c;
     for (int i = 0; i < 3; ++i) {
@@ -625,31 +647,55 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
       c.q[i] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
       c.X[i] = b.x * T[0] + b.y * T[1] + b.z * T[2];
     }
-    const double lin = composed_bound(P, c.q, c.X, s);
-    LeafBounds b;
-    b.m2s = s2m_only ? 0.0 : lin;
-    b.s2m = lin;
-    if (lin > tau && !s2m_only) bound_mesh_to_surface(P, c, lin, tau, others, own_uv_only, s, b, res);
-    if (lin > tau) bound_surface_to_mesh(P, c, T, s2m_only, s2m_targets, nearest, s, b, res);
+    Evaluated e{leaf, {}, composed_bound(P, c.q, c.X, s)};
+    LeafBounds& b = e.b;
+    b.m2s = s2m_only ? 0.0 : e.lin;
+    b.s2m = e.lin;
+    if (e.lin > tau && !s2m_only) bound_mesh_to_surface(P, c, e.lin, tau, others, own_uv_only, s, b, res);
+    if (e.lin > tau) bound_surface_to_mesh(P, c, T, s2m_only, s2m_targets, nearest, s, b, res);
+    return e;
+  };
+  std::vector<Evaluated> heap{evaluate({{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}, 0})};
+  bool kept = false;  // res.m2s / res.s2m hold some kept leaf's bounds
+  while (!heap.empty()) {
+    std::pop_heap(heap.begin(), heap.end());
+    const Evaluated e = heap.back();
+    heap.pop_back();
+    const Leaf& leaf = e.leaf;
+    const LeafBounds& b = e.b;
     // A leaf is done when each bound is below the global target or within the target ratio of a
     // distance actually seen at its corners (then refining cannot tighten the overall interval
     // by more than that ratio, and a direction whose distance exceeds the other's estimate does
     // not refine to the depth budget for nothing).
     const bool done =
         b.m2s <= std::max(tau, target_ratio * b.m2s_seen) && b.s2m <= std::max(tau, target_ratio * b.s2m_seen);
-    if (!done && leaf.depth < max_depth) {
+    bool settled = kept && b.m2s <= res.m2s && b.s2m <= res.s2m && b.s2m < res.s2m_est;
+    if (settled && !s2m_only && !(e.lin < res.m2s_est)) {
+      // The own-(u, v) bound does not rule out a better mesh->surface candidate: the bound with
+      // the corners' projections bounds their residuals too (where the projections converge).
+      double geometric = b.m2s;
+      if (own_uv_only && b.projected) {
+        Vec3 X[3];
+        for (int i = 0; i < 3; ++i) X[i] = leaf.b[i].x * T[0] + leaf.b[i].y * T[1] + leaf.b[i].z * T[2];
+        geometric = composed_bound(P, b.qp, X, s);
+      }
+      settled = geometric < res.m2s_est;
+    }
+    if (!done && !settled && leaf.depth < max_depth) {
       const Vec3 m01 = 0.5 * (leaf.b[0] + leaf.b[1]), m12 = 0.5 * (leaf.b[1] + leaf.b[2]),
                  m20 = 0.5 * (leaf.b[2] + leaf.b[0]);
       const int d = leaf.depth + 1;
-      stack.push_back({{leaf.b[0], m01, m20}, d});
-      stack.push_back({{m01, leaf.b[1], m12}, d});
-      stack.push_back({{m20, m12, leaf.b[2]}, d});
-      stack.push_back({{m12, m20, m01}, d});
+      for (const Leaf& child : {Leaf{{leaf.b[0], m01, m20}, d}, Leaf{{m01, leaf.b[1], m12}, d},
+                                Leaf{{m20, m12, leaf.b[2]}, d}, Leaf{{m12, m20, m01}, d}}) {
+        heap.push_back(evaluate(child));
+        std::push_heap(heap.begin(), heap.end());
+      }
       continue;
     }
-    if (!done) res.exhausted = true;
+    if (!done && !settled) res.exhausted = true;
     res.m2s = std::max(res.m2s, b.m2s);
     res.s2m = std::max(res.s2m, b.s2m);
+    kept = true;
   }
   return res;
 }
