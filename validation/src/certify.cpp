@@ -20,6 +20,7 @@
 #include <functional>
 #include <map>
 #include <tuple>
+#include <unordered_map>
 #include <numeric>
 #include <vector>
 
@@ -523,10 +524,43 @@ struct Leaf {
   int depth = 0;
 };
 
-// A leaf's corners in (u, v) and on the mesh triangle.
+// What the bounds compute at one corner of a leaf, kept for the other leaves sharing the corner
+// (a pure function of the corner: reusing it changes no result).
+struct CornerData {
+  bool projected = false;  // qp: the projection onto the own patch seeded at q; residual |X - S(qp)|
+  Vec2 qp{0.0};
+  double residual = 0.0;
+  bool surfaced = false;   // sp = S(q); near_found / near: the mesh triangle nearest to sp
+  Vec3 sp{0.0};
+  bool near_found = false;
+  std::array<Vec3, 3> near{};
+};
+
+// The corners of one triangle's leaves by barycentric coordinates (exact: dyadic midpoints).
+class CornerCache {
+ public:
+  CornerData& at(const Vec3& b) { return map_[Key{b.x, b.y, b.z}]; }
+  void clear() { map_.clear(); }
+
+ private:
+  struct Key {
+    double x, y, z;
+    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct Hash {
+    size_t operator()(const Key& k) const {
+      const std::hash<double> h;
+      return h(k.x) ^ (h(k.y) * 0x9e3779b97f4a7c15ull) ^ (h(k.z) * 0xc2b2ae3d27d4eb4full);
+    }
+  };
+  std::unordered_map<Key, CornerData, Hash> map_;
+};
+
+// A leaf's corners in (u, v) and on the mesh triangle, and their shared data.
 struct LeafCorners {
   Vec2 q[3];
   Vec3 X[3];
+  CornerData* data[3];
 };
 
 // A leaf's bounds and the distances actually seen at its corners.
@@ -546,8 +580,14 @@ void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin,
   Vec2 qp[3];
   double residual[3];
   for (int i = 0; i < 3; ++i) {
-    qp[i] = P.project(X[i], q[i]);
-    residual[i] = norm(X[i] - eval(*P.patch, qp[i]));
+    CornerData& d = *c.data[i];
+    if (!d.projected) {
+      d.qp = P.project(X[i], q[i]);
+      d.residual = norm(X[i] - eval(*P.patch, d.qp));
+      d.projected = true;
+    }
+    qp[i] = d.qp;
+    residual[i] = d.residual;
   }
   b.projected = true;
   std::copy(qp, qp + 3, b.qp);
@@ -587,15 +627,20 @@ void bound_surface_to_mesh(const PatchData& P, const LeafCorners& c, const std::
                            LeafBounds& b, TriangleResult& res) {
   const Vec2* q = c.q;
   Vec3 sp[3];
-  for (int i = 0; i < 3; ++i) sp[i] = eval(*P.patch, q[i]);
-  std::vector<std::array<Vec3, 3>> targets = s2m_targets ? *s2m_targets : std::vector<std::array<Vec3, 3>>{T};
-  if (nearest) {
-    // The mesh triangles nearest to each corner (found by the AABB tree) are candidates too.
-    for (int i = 0; i < 3; ++i) {
-      std::array<Vec3, 3> tri;
-      if (nearest(sp[i], tri) && std::find(targets.begin(), targets.end(), tri) == targets.end())
-        targets.push_back(tri);
+  for (int i = 0; i < 3; ++i) {
+    CornerData& d = *c.data[i];
+    if (!d.surfaced) {
+      d.sp = eval(*P.patch, q[i]);
+      d.near_found = nearest && nearest(d.sp, d.near);
+      d.surfaced = true;
     }
+    sp[i] = d.sp;
+  }
+  std::vector<std::array<Vec3, 3>> targets = s2m_targets ? *s2m_targets : std::vector<std::array<Vec3, 3>>{T};
+  // The mesh triangles nearest to each corner (found by the AABB tree) are candidates too.
+  for (int i = 0; i < 3; ++i) {
+    const CornerData& d = *c.data[i];
+    if (d.near_found && std::find(targets.begin(), targets.end(), d.near) == targets.end()) targets.push_back(d.near);
   }
   double corner_distance[3] = {kInf, kInf, kInf};
   for (const auto& target : targets) {
@@ -631,6 +676,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
                                const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest = {},
                                const OtherPatches& others = {}, bool own_uv_only = false) {
   TriangleResult res;
+  CornerCache corners;
   struct Evaluated {
     Leaf leaf;
     LeafBounds b;
@@ -646,6 +692,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
       const Vec3& b = leaf.b[i];
       c.q[i] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
       c.X[i] = b.x * T[0] + b.y * T[1] + b.z * T[2];
+      c.data[i] = &corners.at(b);
     }
     Evaluated e{leaf, {}, composed_bound(P, c.q, c.X, s)};
     LeafBounds& b = e.b;
