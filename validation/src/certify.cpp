@@ -197,9 +197,10 @@ struct Scratch {
   }
 };
 
-// One de Casteljau level with argument t on points w[0 .. count] (count + 1 of them, count left).
-void casteljau_level(H* w, int count, double t) {
-  for (int i = 0; i < count; ++i) w[i] = lerp(w[i], w[i + 1], t);
+// One de Casteljau level with argument t from points src[0 .. count] into dst[0 .. count - 1]
+// (dst may be src).
+void casteljau_level(const H* src, H* dst, int count, double t) {
+  for (int i = 0; i < count; ++i) dst[i] = lerp(src[i], src[i + 1], t);
 }
 
 // The blossom of the degree-d points `pts` at every argument list x0^a0 x1^a1 x2^(d - a0 - a1), in
@@ -208,16 +209,16 @@ void casteljau_level(H* w, int count, double t) {
 // then x0^a0 x1^a1) are computed once, so every value is bit for bit the plain evaluation's.
 void blossom_all(const H* pts, int d, const double x[3], H* out, size_t stride) {
   H w0[kMaxDegree + 1], w1[kMaxDegree + 1], w2[kMaxDegree + 1];
-  std::copy(pts, pts + d + 1, w0);
   size_t k = 0;
+  const H* prefix0 = pts;  // after x0^a0
   for (int a0 = 0; a0 <= d; ++a0) {
-    if (a0 > 0) casteljau_level(w0, d + 1 - a0, x[0]);
-    std::copy(w0, w0 + d + 1 - a0, w1);
+    if (a0 > 0) casteljau_level(prefix0, w0, d + 1 - a0, x[0]), prefix0 = w0;
+    const H* prefix1 = prefix0;  // after x0^a0 x1^a1
     for (int a1 = 0; a0 + a1 <= d; ++a1) {
-      if (a1 > 0) casteljau_level(w1, d + 1 - a0 - a1, x[1]);
-      std::copy(w1, w1 + d + 1 - a0 - a1, w2);
-      for (int level = a0 + a1 + 1; level <= d; ++level) casteljau_level(w2, d + 1 - level, x[2]);
-      out[stride * k++] = w2[0];
+      if (a1 > 0) casteljau_level(prefix1, w1, d + 1 - a0 - a1, x[1]), prefix1 = w1;
+      const H* tail = prefix1;
+      for (int level = a0 + a1 + 1; level <= d; ++level) casteljau_level(tail, w2, d + 1 - level, x[2]), tail = w2;
+      out[stride * k++] = tail[0];
     }
   }
 }
