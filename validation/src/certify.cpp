@@ -47,6 +47,21 @@ double norm(double x, double y, double z) {
   return std::ldexp(std::sqrt(x * x + y * y + z * z), e);
 }
 double norm(const Vec3& v) { return norm(v.x, v.y, v.z); }
+
+// The largest norm() of the vectors added, with one square root for those in norm()'s plain range
+// (sqrt is monotone, so the largest root is the root of the largest sum): the same value.
+struct MaxNorm {
+  double squares = 0.0, other = 0.0;
+  void add(const Vec3& v) {
+    const double m = std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)});
+    if (m > 0x1p-500 && m < 0x1p500) {
+      squares = std::max(squares, v.x * v.x + v.y * v.y + v.z * v.z);
+    } else {
+      other = std::max(other, norm(v));
+    }
+  }
+  double value() const { return std::max(other, std::sqrt(squares)); }
+};
 double norm(const Vec2& v) { return glm::length(v); }
 
 H lerp(const H& a, const H& b, double t) {
@@ -273,6 +288,7 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
     Xl[l] = X[l] - P.origin;
     xmag = std::max(xmag, norm(Xl[l]));
   }
+  MaxNorm largest;
   double emax = 0.0;
   if (!P.patch->rational()) {
     // e_ijk = c_ijk - (i X0 + j X1 + k X2) / N  (the affine part degree-elevated to N, exactly).
@@ -280,8 +296,9 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
       const auto& al = s.tn.list[g];
       const Vec3 lin = (double(al[0]) * Xl[0] + double(al[1]) * Xl[1] + double(al[2]) * Xl[2]) / double(N);
       const Vec3 e(s.coef[g][0] - lin.x, s.coef[g][1] - lin.y, s.coef[g][2] - lin.z);
-      emax = std::max(emax, norm(e));
+      largest.add(e);
     }
+    emax = largest.value();
     wmin_poly = 1.0;
   } else {
     // N(b) - W(b) X(b) has degree N + 1: E_g = sum_l g_l / (N + 1) (Nc_{g - e_l} - Wc_{g - e_l} X_l).
@@ -296,8 +313,9 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
         const H& c = s.coef[static_cast<size_t>(t1.at(h[0], h[1]))];
         e += (double(g[l]) / double(N + 1)) * (Vec3(c[0], c[1], c[2]) - c[3] * Xl[l]);
       }
-      emax = std::max(emax, norm(e));
+      largest.add(e);
     }
+    emax = largest.value();
     if (!(wmin_poly > 0.0)) return kInf;
     emax /= wmin_poly;
   }
@@ -906,7 +924,8 @@ struct Node {
 // the node's rounding allowance.
 double node_lower(const Node& node, double scale) {
   Vec3 lo(kInf), hi(-kInf);
-  std::vector<Vec3> pts(node.h.size());
+  thread_local std::vector<Vec3> pts;  // reused across calls (no allocation per node)
+  pts.resize(node.h.size());
   for (size_t k = 0; k < node.h.size(); ++k) {
     pts[k] = Vec3(node.h[k][0], node.h[k][1], node.h[k][2]) / node.h[k][3];
     lo = glm::min(lo, pts[k]);
@@ -943,7 +962,7 @@ void split(const Node& node, bool along_u, Node& left, Node& right) {
   ++right.depth;
   const int count = along_u ? n : m;
   const int lines = along_u ? m + 1 : n + 1;
-  std::vector<H> w(static_cast<size_t>(count + 1));
+  H w[kMaxDegree + 1];
   for (int line = 0; line < lines; ++line) {
     auto idx = [&](int k) { return static_cast<size_t>(along_u ? k * (m + 1) + line : line * (m + 1) + k); };
     for (int k = 0; k <= count; ++k) w[k] = node.h[idx(k)];
