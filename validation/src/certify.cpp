@@ -735,7 +735,8 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
     // not refine to the depth budget for nothing).
     const bool done =
         b.m2s <= std::max(tau, target_ratio * b.m2s_seen) && b.s2m <= std::max(tau, target_ratio * b.s2m_seen);
-    bool settled = kept && b.m2s <= res.m2s && b.s2m <= res.s2m && b.s2m < res.s2m_est;
+    const bool refinable = !done && leaf.depth < max_depth;
+    bool settled = refinable && kept && b.m2s <= res.m2s && b.s2m <= res.s2m && b.s2m < res.s2m_est;
     if (settled && !s2m_only && !(e.lin < res.m2s_est)) {
       // The own-(u, v) bound does not rule out a better mesh->surface candidate: the bound with
       // the corners' projections bounds their residuals too (where the projections converge).
@@ -747,7 +748,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
       }
       settled = geometric < res.m2s_est;
     }
-    if (!done && !settled && leaf.depth < max_depth) {
+    if (refinable && !settled) {
       const Vec3 m01 = 0.5 * (leaf.b[0] + leaf.b[1]), m12 = 0.5 * (leaf.b[1] + leaf.b[2]),
                  m20 = 0.5 * (leaf.b[2] + leaf.b[0]);
       const int d = leaf.depth + 1;
