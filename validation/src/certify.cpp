@@ -20,6 +20,7 @@
 #include <functional>
 #include <map>
 #include <tuple>
+#include <unordered_map>
 #include <numeric>
 #include <vector>
 
@@ -46,6 +47,21 @@ double norm(double x, double y, double z) {
   return std::ldexp(std::sqrt(x * x + y * y + z * z), e);
 }
 double norm(const Vec3& v) { return norm(v.x, v.y, v.z); }
+
+// The largest norm() of the vectors added, with one square root for those in norm()'s plain range
+// (sqrt is monotone, so the largest root is the root of the largest sum): the same value.
+struct MaxNorm {
+  double squares = 0.0, other = 0.0;
+  void add(const Vec3& v) {
+    const double m = std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)});
+    if (m > 0x1p-500 && m < 0x1p500) {
+      squares = std::max(squares, v.x * v.x + v.y * v.y + v.z * v.z);
+    } else {
+      other = std::max(other, norm(v));
+    }
+  }
+  double value() const { return std::max(other, std::sqrt(squares)); }
+};
 double norm(const Vec2& v) { return glm::length(v); }
 
 H lerp(const H& a, const H& b, double t) {
@@ -54,6 +70,13 @@ H lerp(const H& a, const H& b, double t) {
 }
 
 double norm3(const H& h) { return norm(h[0], h[1], h[2]); }
+
+// A patch moved so its first control point is the origin (for project_shifted).
+BezierPatch shifted_patch(const BezierPatch& patch) {
+  BezierPatch shifted = patch;
+  for (Vec3& p : shifted.points) p -= patch.points[0];
+  return shifted;
+}
 
 // Per patch data: homogeneous control points relative to a local origin and the magnitudes the
 // rounding bound needs.
@@ -65,6 +88,9 @@ struct PatchData {
   double hmag = 0.0;  // max |w (P - o)|
   double wmin = 1.0, wmax = 1.0;
   double lipschitz = 0.0;  // >= max |dS/du| + |dS/dv| over the domain
+  BezierPatch shifted;     // the patch moved so its first control point is the origin (project_shifted)
+  // Projection of x onto the patch seeded at q: project() without copying the patch.
+  Vec2 project(const Vec3& x, Vec2 q) const;
 };
 
 PatchData make_patch_data(const BezierPatch& patch) {
@@ -106,6 +132,7 @@ PatchData make_patch_data(const BezierPatch& patch) {
     }
   }
   d.lipschitz = (du + dv) * (1.0 + 1e-12);
+  d.shifted = shifted_patch(patch);
   return d;
 }
 
@@ -125,14 +152,36 @@ struct Triples {
   int at(int a0, int a1) const { return index[static_cast<size_t>(a0 * (s + 1) + a1)]; }
 };
 
+// Binomial coefficients C(a, b) for a <= 2 kMaxDegree + 1, the values of binomial() (exact integers).
+struct BinomialTable {
+  static constexpr int kSize = 2 * kMaxDegree + 2;
+  std::array<double, kSize * kSize> c{};
+  BinomialTable() {
+    for (int a = 0; a < kSize; ++a) {
+      for (int b = 0; b < kSize; ++b) c[static_cast<size_t>(a * kSize + b)] = binomial(a, b);
+    }
+  }
+  double operator()(int a, int b) const { return c[static_cast<size_t>(a * kSize + b)]; }
+};
+const BinomialTable& binomials() {
+  static const BinomialTable table;
+  return table;
+}
+
 // Scratch space reused across triangles by one thread.
 struct Scratch {
   int n = -1, m = -1;
-  Triples tu, tv, tn;
+  Triples tu, tv, tn, tn1;  // degrees n, m, n + m, n + m + 1
   std::vector<H> qa;   // per u-triple: m + 1 points
   std::vector<H> r;    // per (u-triple, v-triple): the blossom value
   std::vector<H> coef; // per degree-(n + m) triple
-  std::vector<H> work;
+  // Per degree-(n + m) triple: the blossom values (indices into r) and Vandermonde weights it sums.
+  std::vector<std::vector<std::pair<size_t, double>>> terms;
+  // coef holds the composition of `coef_patch` with the (u, v) triangle coef_q (wmin_poly its
+  // smallest weight coefficient): a repeated composed_bound over the same (u, v) reuses it.
+  const PatchData* coef_patch = nullptr;
+  Vec2 coef_q[3];
+  double coef_wmin = 0.0;
   void prepare(int n_, int m_) {
     if (n == n_ && m == m_) return;
     n = n_;
@@ -140,69 +189,78 @@ struct Scratch {
     tu = Triples(n);
     tv = Triples(m);
     tn = Triples(n + m);
+    tn1 = Triples(n + m + 1);
     qa.assign(tu.list.size() * static_cast<size_t>(m + 1), H{});
     r.assign(tu.list.size() * tv.list.size(), H{});
     coef.assign(tn.list.size(), H{});
-    work.assign(static_cast<size_t>(std::max(n, m) + 1), H{});
+    coef_patch = nullptr;
+    const BinomialTable& binomial = binomials();
+    const double inv_total = 1.0 / binomial(n + m, n);
+    terms.assign(tn.list.size(), {});
+    for (size_t g = 0; g < tn.list.size(); ++g) {
+      const auto& al = tn.list[g];
+      for (int a0 = 0; a0 <= std::min(al[0], n); ++a0) {
+        for (int a1 = 0; a1 <= std::min(al[1], n - a0); ++a1) {
+          const int a2 = n - a0 - a1;
+          if (a2 > al[2]) continue;
+          const double wgt = binomial(al[0], a0) * binomial(al[1], a1) * binomial(al[2], a2) * inv_total;
+          const size_t index = static_cast<size_t>(tu.at(a0, a1)) * tv.list.size() + static_cast<size_t>(tv.at(al[0] - a0, al[1] - a1));
+          terms[g].emplace_back(index, wgt);
+        }
+      }
+    }
   }
 };
+
+// One de Casteljau level with argument t from points src[0 .. count] into dst[0 .. count - 1]
+// (dst may be src).
+void casteljau_level(const H* src, H* dst, int count, double t) {
+  for (int i = 0; i < count; ++i) dst[i] = lerp(src[i], src[i + 1], t);
+}
+
+// The blossom of the degree-d points `pts` at every argument list x0^a0 x1^a1 x2^(d - a0 - a1), in
+// the order of Triples(d), into out[stride * k] (k the triple's position). Each value is the
+// de Casteljau evaluation with the arguments in that order; the levels of a shared prefix (x0^a0,
+// then x0^a0 x1^a1) are computed once, so every value is bit for bit the plain evaluation's.
+void blossom_all(const H* pts, int d, const double x[3], H* out, size_t stride) {
+  H w0[kMaxDegree + 1], w1[kMaxDegree + 1], w2[kMaxDegree + 1];
+  size_t k = 0;
+  const H* prefix0 = pts;  // after x0^a0
+  for (int a0 = 0; a0 <= d; ++a0) {
+    if (a0 > 0) casteljau_level(prefix0, w0, d + 1 - a0, x[0]), prefix0 = w0;
+    const H* prefix1 = prefix0;  // after x0^a0 x1^a1
+    for (int a1 = 0; a0 + a1 <= d; ++a1) {
+      if (a1 > 0) casteljau_level(prefix1, w1, d + 1 - a0 - a1, x[1]), prefix1 = w1;
+      const H* tail = prefix1;
+      for (int level = a0 + a1 + 1; level <= d; ++level) casteljau_level(tail, w2, d + 1 - level, x[2]), tail = w2;
+      out[stride * k++] = tail[0];
+    }
+  }
+}
 
 // u-blossom of every column for each u-triple, then the v-blossom of those for each (u-triple,
 // v-triple), into s.r.
 void blossom(const PatchData& P, const Vec2 q[3], Scratch& s) {
   const int n = P.n, m = P.m;
   const size_t nu = s.tu.list.size(), nv = s.tv.list.size();
-  double args[2 * kMaxDegree + 2];
-  // u-blossom of every column for each u-triple.
-  for (size_t a = 0; a < nu; ++a) {
-    const auto& t = s.tu.list[a];
-    int c = 0;
-    for (int l = 0; l < 3; ++l) {
-      for (int k = 0; k < t[l]; ++k) args[c++] = q[l].x;
-    }
-    for (int j = 0; j <= m; ++j) {
-      for (int i = 0; i <= n; ++i) s.work[i] = P.h[static_cast<size_t>(i * (m + 1) + j)];
-      for (int level = 1; level <= n; ++level) {
-        for (int i = 0; i <= n - level; ++i) s.work[i] = lerp(s.work[i], s.work[i + 1], args[level - 1]);
-      }
-      s.qa[a * (m + 1) + j] = s.work[0];
-    }
+  const double xu[3] = {q[0].x, q[1].x, q[2].x}, xv[3] = {q[0].y, q[1].y, q[2].y};
+  H column[kMaxDegree + 1];
+  for (int j = 0; j <= m; ++j) {
+    for (int i = 0; i <= n; ++i) column[i] = P.h[static_cast<size_t>(i * (m + 1) + j)];
+    blossom_all(column, n, xu, &s.qa[static_cast<size_t>(j)], static_cast<size_t>(m + 1));
   }
-  // v-blossom for each (u-triple, v-triple).
-  for (size_t b = 0; b < nv; ++b) {
-    const auto& t = s.tv.list[b];
-    int c = 0;
-    for (int l = 0; l < 3; ++l) {
-      for (int k = 0; k < t[l]; ++k) args[c++] = q[l].y;
-    }
-    for (size_t a = 0; a < nu; ++a) {
-      for (int j = 0; j <= m; ++j) s.work[j] = s.qa[a * (m + 1) + j];
-      for (int level = 1; level <= m; ++level) {
-        for (int j = 0; j <= m - level; ++j) s.work[j] = lerp(s.work[j], s.work[j + 1], args[level - 1]);
-      }
-      s.r[a * nv + b] = s.work[0];
-    }
-  }
+  for (size_t a = 0; a < nu; ++a) blossom_all(&s.qa[a * (m + 1)], m, xv, &s.r[a * nv], 1);
 }
 
 // Triangular coefficients of degree n + m from the blossom values (into s.coef); returns the
 // smallest weight coefficient.
-double triangular_coefficients(const PatchData& P, Scratch& s) {
-  const int n = P.n, N = P.n + P.m;
-  const size_t nv = s.tv.list.size();
-  const double inv_total = 1.0 / binomial(N, n);
+double triangular_coefficients(Scratch& s) {
   double wmin_poly = kInf;
   for (size_t g = 0; g < s.tn.list.size(); ++g) {
-    const auto& al = s.tn.list[g];
     H acc{0, 0, 0, 0};
-    for (int a0 = 0; a0 <= std::min(al[0], n); ++a0) {
-      for (int a1 = 0; a1 <= std::min(al[1], n - a0); ++a1) {
-        const int a2 = n - a0 - a1;
-        if (a2 > al[2]) continue;
-        const double wgt = binomial(al[0], a0) * binomial(al[1], a1) * binomial(al[2], a2) * inv_total;
-        const H& v = s.r[static_cast<size_t>(s.tu.at(a0, a1)) * nv + static_cast<size_t>(s.tv.at(al[0] - a0, al[1] - a1))];
-        for (int c = 0; c < 4; ++c) acc[c] += wgt * v[c];
-      }
+    for (const auto& [index, wgt] : s.terms[g]) {
+      const H& v = s.r[index];
+      for (int c = 0; c < 4; ++c) acc[c] += wgt * v[c];
     }
     s.coef[g] = acc;
     wmin_poly = std::min(wmin_poly, acc[3]);
@@ -217,14 +275,20 @@ double triangular_coefficients(const PatchData& P, Scratch& s) {
 double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scratch& s) {
   const int n = P.n, m = P.m, N = n + m;
   s.prepare(n, m);
-  blossom(P, q, s);
-  double wmin_poly = triangular_coefficients(P, s);
+  if (s.coef_patch != &P || s.coef_q[0] != q[0] || s.coef_q[1] != q[1] || s.coef_q[2] != q[2]) {
+    blossom(P, q, s);
+    s.coef_wmin = triangular_coefficients(s);
+    s.coef_patch = &P;
+    std::copy(q, q + 3, s.coef_q);
+  }
+  double wmin_poly = s.coef_wmin;
   Vec3 Xl[3];
   double xmag = 0.0;
   for (int l = 0; l < 3; ++l) {
     Xl[l] = X[l] - P.origin;
     xmag = std::max(xmag, norm(Xl[l]));
   }
+  MaxNorm largest;
   double emax = 0.0;
   if (!P.patch->rational()) {
     // e_ijk = c_ijk - (i X0 + j X1 + k X2) / N  (the affine part degree-elevated to N, exactly).
@@ -232,13 +296,14 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
       const auto& al = s.tn.list[g];
       const Vec3 lin = (double(al[0]) * Xl[0] + double(al[1]) * Xl[1] + double(al[2]) * Xl[2]) / double(N);
       const Vec3 e(s.coef[g][0] - lin.x, s.coef[g][1] - lin.y, s.coef[g][2] - lin.z);
-      emax = std::max(emax, norm(e));
+      largest.add(e);
     }
+    emax = largest.value();
     wmin_poly = 1.0;
   } else {
     // N(b) - W(b) X(b) has degree N + 1: E_g = sum_l g_l / (N + 1) (Nc_{g - e_l} - Wc_{g - e_l} X_l).
     const Triples& t1 = s.tn;  // degree N indices
-    const Triples up(N + 1);
+    const Triples& up = s.tn1;
     for (const auto& g : up.list) {
       Vec3 e(0.0);
       for (int l = 0; l < 3; ++l) {
@@ -248,8 +313,9 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
         const H& c = s.coef[static_cast<size_t>(t1.at(h[0], h[1]))];
         e += (double(g[l]) / double(N + 1)) * (Vec3(c[0], c[1], c[2]) - c[3] * Xl[l]);
       }
-      emax = std::max(emax, norm(e));
+      largest.add(e);
     }
+    emax = largest.value();
     if (!(wmin_poly > 0.0)) return kInf;
     emax /= wmin_poly;
   }
@@ -262,20 +328,55 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
   return bound >= 0.0 ? bound : kInf;  // NaN (an overflow on the way) proves nothing
 }
 
+// De Casteljau on d + 1 homogeneous points (overwritten); value and derivative d/dt. The same
+// operations as evaluate_with_derivatives (kernels/src/evaluate.cpp), on the stack.
+void curve_with_derivative(H* pts, int d, double t, H& value, H& derivative) {
+  for (int r = 1; r < d; ++r) {
+    for (int k = 0; k <= d - r; ++k) {
+      for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
+    }
+  }
+  for (int c = 0; c < 4; ++c) {
+    value[c] = (1.0 - t) * pts[0][c] + t * pts[1][c];
+    derivative[c] = d * (pts[1][c] - pts[0][c]);
+  }
+}
+
+// evaluate_with_derivatives without heap allocations: bit for bit the same result.
+SurfacePointEval evaluate_with_derivatives_local(const BezierPatch& patch, double u, double v) {
+  const int n = patch.degree_u, m = patch.degree_v;
+  H along_v[kMaxDegree + 1], rows[kMaxDegree + 1], drows[kMaxDegree + 1];
+  for (int i = 0; i <= n; ++i) {
+    for (int j = 0; j <= m; ++j) {
+      const double w = patch.weight(i, j);
+      const Vec3& p = patch.at(i, j);
+      along_v[j] = {w * p.x, w * p.y, w * p.z, w};
+    }
+    curve_with_derivative(along_v, m, v, rows[i], drows[i]);
+  }
+  H h, hu, hv, unused;
+  curve_with_derivative(rows, n, u, h, hu);
+  curve_with_derivative(drows, n, u, hv, unused);
+  const auto point = [](const H& x) { return Vec3(x[0], x[1], x[2]) / x[3]; };
+  SurfacePointEval e;
+  e.position = point(h);
+  e.du = (Vec3(hu[0], hu[1], hu[2]) - e.position * hu[3]) / h[3];
+  e.dv = (Vec3(hv[0], hv[1], hv[2]) - e.position * hv[3]) / h[3];
+  return e;
+}
+
 // Damped Gauss-Newton projection of x onto the patch, seeded at q, clamped to the domain; a step is
 // accepted only when it brings the point closer (halved otherwise), so the result is never worse
 // than the seed (beyond rounding, in the final steps below). Any result is acceptable to the
 // callers (they only need some surface point).
-Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
-  // Iterate on the patch moved so its first control point is the origin: in absolute coordinates
-  // far from the origin (1e8) the evaluation noise (~ulp(|x|)) stalls the descent test well before
-  // the projection, and the bounds built on the result then change with a translation of the model.
-  // Any parameters are sound; this makes them (nearly) translation invariant.
-  const Vec3 origin = patch_in.points[0];
-  BezierPatch patch = patch_in;
-  for (Vec3& p : patch.points) p -= origin;
-  const Vec3 x = x_in - origin;
-  SurfacePointEval e = evaluate_with_derivatives(patch, q.x, q.y);
+//
+// Iterates on the patch moved so its first control point is the origin (`patch`, with x moved
+// alike): in absolute coordinates far from the origin (1e8) the evaluation noise (~ulp(|x|)) stalls
+// the descent test well before the projection, and the bounds built on the result then change with
+// a translation of the model. Any parameters are sound; this makes them (nearly) translation
+// invariant.
+Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q) {
+  SurfacePointEval e = evaluate_with_derivatives_local(patch, q.x, q.y);
   double best = norm(x - e.position);
   for (int it = 0; it < 12; ++it) {
     const Vec3 r = x - e.position;
@@ -290,7 +391,7 @@ Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
       // scaled model gave bounds 1e-9 apart). Here a plain Gauss-Newton step is kept while it
       // shrinks the gradient (r . du, r . dv), which converges to full precision.
       const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
-      const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
+      const SurfacePointEval ne = evaluate_with_derivatives_local(patch, next.x, next.y);
       const Vec3 nr = x - ne.position;
       if (norm(Vec2(glm::dot(ne.du, nr), glm::dot(ne.dv, nr))) >= norm(Vec2(ru, rv))) break;
       q = next;
@@ -300,7 +401,7 @@ Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
     bool moved = false;
     for (int half = 0; half < 20 && !moved; ++half, step *= 0.5) {
       const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
-      const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
+      const SurfacePointEval ne = evaluate_with_derivatives_local(patch, next.x, next.y);
       const double d = norm(x - ne.position);
       if (d < best) {
         best = d;
@@ -314,9 +415,37 @@ Vec2 project(const BezierPatch& patch_in, const Vec3& x_in, Vec2 q) {
   return q;
 }
 
+Vec2 project(const BezierPatch& patch, const Vec3& x, Vec2 q) {
+  return project_shifted(shifted_patch(patch), x - patch.points[0], q);
+}
+
+Vec2 PatchData::project(const Vec3& x, Vec2 q) const { return project_shifted(shifted, x - patch->points[0], q); }
+
+// S(q): de_casteljau<double> (kernels/src/evaluate.cpp) on the stack, the same operations.
 Vec3 eval(const BezierPatch& patch, Vec2 q) {
-  const auto p = de_casteljau<double>(patch, q.x, q.y);
-  return Vec3(p[0], p[1], p[2]);
+  const int n = patch.degree_u, m = patch.degree_v;
+  const double u = q.x, v = q.y;
+  H rowpts[kMaxDegree + 1], work[kMaxDegree + 1];
+  for (int i = 0; i <= n; ++i) {
+    for (int j = 0; j <= m; ++j) {
+      const double w = patch.weight(i, j);
+      const Vec3& p = patch.at(i, j);
+      work[j] = {w * p.x, w * p.y, w * p.z, w};
+    }
+    for (int r = 1; r <= m; ++r) {
+      for (int j = 0; j <= m - r; ++j) {
+        for (int c = 0; c < 4; ++c) work[j][c] = (1.0 - v) * work[j][c] + v * work[j + 1][c];
+      }
+    }
+    rowpts[i] = work[0];
+  }
+  for (int r = 1; r <= n; ++r) {
+    for (int i = 0; i <= n - r; ++i) {
+      for (int c = 0; c < 4; ++c) rowpts[i][c] = (1.0 - u) * rowpts[i][c] + u * rowpts[i + 1][c];
+    }
+  }
+  const H& h = rowpts[0];
+  return Vec3(h[0] / h[3], h[1] / h[3], h[2] / h[3]);
 }
 
 // Distance from x to an axis-aligned box (0 inside).
@@ -414,16 +543,51 @@ struct Leaf {
   int depth = 0;
 };
 
-// A leaf's corners in (u, v) and on the mesh triangle.
+// What the bounds compute at one corner of a leaf, kept for the other leaves sharing the corner
+// (a pure function of the corner: reusing it changes no result).
+struct CornerData {
+  bool projected = false;  // qp: the projection onto the own patch seeded at q; residual |X - S(qp)|
+  Vec2 qp{0.0};
+  double residual = 0.0;
+  bool surfaced = false;   // sp = S(q); near_found / near: the mesh triangle nearest to sp
+  Vec3 sp{0.0};
+  bool near_found = false;
+  std::array<Vec3, 3> near{};
+};
+
+// The corners of one triangle's leaves by barycentric coordinates (exact: dyadic midpoints).
+class CornerCache {
+ public:
+  CornerData& at(const Vec3& b) { return map_[Key{b.x, b.y, b.z}]; }
+  void clear() { map_.clear(); }
+
+ private:
+  struct Key {
+    double x, y, z;
+    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct Hash {
+    size_t operator()(const Key& k) const {
+      const std::hash<double> h;
+      return h(k.x) ^ (h(k.y) * 0x9e3779b97f4a7c15ull) ^ (h(k.z) * 0xc2b2ae3d27d4eb4full);
+    }
+  };
+  std::unordered_map<Key, CornerData, Hash> map_;
+};
+
+// A leaf's corners in (u, v) and on the mesh triangle, and their shared data.
 struct LeafCorners {
   Vec2 q[3];
   Vec3 X[3];
+  CornerData* data[3];
 };
 
 // A leaf's bounds and the distances actually seen at its corners.
 struct LeafBounds {
   double m2s = 0.0, s2m = 0.0;
   double m2s_seen = 0.0, s2m_seen = 0.0;
+  bool projected = false;  // qp holds the corners' projections onto the own patch
+  Vec2 qp[3];
 };
 
 // Mesh->surface: the leaf's corners matched to their projections on the surface; `lin` is the
@@ -435,9 +599,17 @@ void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin,
   Vec2 qp[3];
   double residual[3];
   for (int i = 0; i < 3; ++i) {
-    qp[i] = project(*P.patch, X[i], q[i]);
-    residual[i] = norm(X[i] - eval(*P.patch, qp[i]));
+    CornerData& d = *c.data[i];
+    if (!d.projected) {
+      d.qp = P.project(X[i], q[i]);
+      d.residual = norm(X[i] - eval(*P.patch, d.qp));
+      d.projected = true;
+    }
+    qp[i] = d.qp;
+    residual[i] = d.residual;
   }
+  b.projected = true;
+  std::copy(qp, qp + 3, b.qp);
   if (!own_uv_only) b.m2s = std::min(lin, composed_bound(P, qp, X, s));
   if (b.m2s > tau && !others.empty()) {
     // The leaf matched to another patch: sound for the distance to the model, and the only
@@ -448,7 +620,7 @@ void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin,
       const PatchData& O = (*others.data)[o];
       Vec2 qo[3];
       for (int i = 0; i < 3; ++i) {
-        qo[i] = i == 0 ? project_unseeded(*O.patch, X[i]) : project(*O.patch, X[i], qo[i - 1]);
+        qo[i] = i == 0 ? project_unseeded(*O.patch, X[i]) : O.project(X[i], qo[i - 1]);
         residual[i] = std::min(residual[i], norm(X[i] - eval(*O.patch, qo[i])));
       }
       b.m2s = std::min(b.m2s, composed_bound(O, qo, X, s));
@@ -474,15 +646,20 @@ void bound_surface_to_mesh(const PatchData& P, const LeafCorners& c, const std::
                            LeafBounds& b, TriangleResult& res) {
   const Vec2* q = c.q;
   Vec3 sp[3];
-  for (int i = 0; i < 3; ++i) sp[i] = eval(*P.patch, q[i]);
-  std::vector<std::array<Vec3, 3>> targets = s2m_targets ? *s2m_targets : std::vector<std::array<Vec3, 3>>{T};
-  if (nearest) {
-    // The mesh triangles nearest to each corner (found by the AABB tree) are candidates too.
-    for (int i = 0; i < 3; ++i) {
-      std::array<Vec3, 3> tri;
-      if (nearest(sp[i], tri) && std::find(targets.begin(), targets.end(), tri) == targets.end())
-        targets.push_back(tri);
+  for (int i = 0; i < 3; ++i) {
+    CornerData& d = *c.data[i];
+    if (!d.surfaced) {
+      d.sp = eval(*P.patch, q[i]);
+      d.near_found = nearest && nearest(d.sp, d.near);
+      d.surfaced = true;
     }
+    sp[i] = d.sp;
+  }
+  std::vector<std::array<Vec3, 3>> targets = s2m_targets ? *s2m_targets : std::vector<std::array<Vec3, 3>>{T};
+  // The mesh triangles nearest to each corner (found by the AABB tree) are candidates too.
+  for (int i = 0; i < 3; ++i) {
+    const CornerData& d = *c.data[i];
+    if (d.near_found && std::find(targets.begin(), targets.end(), d.near) == targets.end()) targets.push_back(d.near);
   }
   double corner_distance[3] = {kInf, kInf, kInf};
   for (const auto& target : targets) {
@@ -503,50 +680,89 @@ void bound_surface_to_mesh(const PatchData& P, const LeafCorners& c, const std::
 }
 
 // Refines one triangle; `tau` is the level below which a leaf is accepted.
+//
+// Leaves are refined largest bound first. A leaf that is not done is still kept as it is (not
+// refined) when refining it could change neither result:
+//  - each of its bounds is at most the triangle's bound so far in that direction (from leaves kept
+//    before it). Every kept leaf is a final leaf of the full refinement too, so the triangle's bounds
+//    are the maxima over a subset of the full refinement's final leaves: tighter or equal;
+//  - its bounds are below the lower-bound candidates found so far: a point of the leaf lies within
+//    `lin` of its own-(u, v) surface point (projections start there and never end farther), and a
+//    surface point over it within b.s2m of the mesh, so its sub-leaves' corners cannot beat them.
 TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv, const std::array<Vec3, 3>& T,
                                double tau, double target_ratio, int max_depth, Scratch& s, bool s2m_only = false,
                                const std::vector<std::array<Vec3, 3>>* s2m_targets = nullptr,
                                const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest = {},
                                const OtherPatches& others = {}, bool own_uv_only = false) {
   TriangleResult res;
-  std::vector<Leaf> stack;
-  stack.push_back({{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}, 0});
-  while (!stack.empty()) {
+  CornerCache corners;
+  struct Evaluated {
+    Leaf leaf;
+    LeafBounds b;
+    double lin = 0.0;
+    double key() const { return std::max(b.m2s, b.s2m); }
+    bool operator<(const Evaluated& o) const { return key() < o.key(); }
+  };
+  const auto evaluate = [&](const Leaf& leaf) {
     budget::check("validation");
-    const Leaf leaf = stack.back();
-    stack.pop_back();
     ++res.leaves;
     LeafCorners c;
     for (int i = 0; i < 3; ++i) {
       const Vec3& b = leaf.b[i];
       c.q[i] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
       c.X[i] = b.x * T[0] + b.y * T[1] + b.z * T[2];
+      c.data[i] = &corners.at(b);
     }
-    const double lin = composed_bound(P, c.q, c.X, s);
-    LeafBounds b;
-    b.m2s = s2m_only ? 0.0 : lin;
-    b.s2m = lin;
-    if (lin > tau && !s2m_only) bound_mesh_to_surface(P, c, lin, tau, others, own_uv_only, s, b, res);
-    if (lin > tau) bound_surface_to_mesh(P, c, T, s2m_only, s2m_targets, nearest, s, b, res);
+    Evaluated e{leaf, {}, composed_bound(P, c.q, c.X, s)};
+    LeafBounds& b = e.b;
+    b.m2s = s2m_only ? 0.0 : e.lin;
+    b.s2m = e.lin;
+    if (e.lin > tau && !s2m_only) bound_mesh_to_surface(P, c, e.lin, tau, others, own_uv_only, s, b, res);
+    if (e.lin > tau) bound_surface_to_mesh(P, c, T, s2m_only, s2m_targets, nearest, s, b, res);
+    return e;
+  };
+  std::vector<Evaluated> heap{evaluate({{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}, 0})};
+  bool kept = false;  // res.m2s / res.s2m hold some kept leaf's bounds
+  while (!heap.empty()) {
+    std::pop_heap(heap.begin(), heap.end());
+    const Evaluated e = heap.back();
+    heap.pop_back();
+    const Leaf& leaf = e.leaf;
+    const LeafBounds& b = e.b;
     // A leaf is done when each bound is below the global target or within the target ratio of a
     // distance actually seen at its corners (then refining cannot tighten the overall interval
     // by more than that ratio, and a direction whose distance exceeds the other's estimate does
     // not refine to the depth budget for nothing).
     const bool done =
         b.m2s <= std::max(tau, target_ratio * b.m2s_seen) && b.s2m <= std::max(tau, target_ratio * b.s2m_seen);
-    if (!done && leaf.depth < max_depth) {
+    const bool refinable = !done && leaf.depth < max_depth;
+    bool settled = refinable && kept && b.m2s <= res.m2s && b.s2m <= res.s2m && b.s2m < res.s2m_est;
+    if (settled && !s2m_only && !(e.lin < res.m2s_est)) {
+      // The own-(u, v) bound does not rule out a better mesh->surface candidate: the bound with
+      // the corners' projections bounds their residuals too (where the projections converge).
+      double geometric = b.m2s;
+      if (own_uv_only && b.projected) {
+        Vec3 X[3];
+        for (int i = 0; i < 3; ++i) X[i] = leaf.b[i].x * T[0] + leaf.b[i].y * T[1] + leaf.b[i].z * T[2];
+        geometric = composed_bound(P, b.qp, X, s);
+      }
+      settled = geometric < res.m2s_est;
+    }
+    if (refinable && !settled) {
       const Vec3 m01 = 0.5 * (leaf.b[0] + leaf.b[1]), m12 = 0.5 * (leaf.b[1] + leaf.b[2]),
                  m20 = 0.5 * (leaf.b[2] + leaf.b[0]);
       const int d = leaf.depth + 1;
-      stack.push_back({{leaf.b[0], m01, m20}, d});
-      stack.push_back({{m01, leaf.b[1], m12}, d});
-      stack.push_back({{m20, m12, leaf.b[2]}, d});
-      stack.push_back({{m12, m20, m01}, d});
+      for (const Leaf& child : {Leaf{{leaf.b[0], m01, m20}, d}, Leaf{{m01, leaf.b[1], m12}, d},
+                                Leaf{{m20, m12, leaf.b[2]}, d}, Leaf{{m12, m20, m01}, d}}) {
+        heap.push_back(evaluate(child));
+        std::push_heap(heap.begin(), heap.end());
+      }
       continue;
     }
-    if (!done) res.exhausted = true;
+    if (!done && !settled) res.exhausted = true;
     res.m2s = std::max(res.m2s, b.m2s);
     res.s2m = std::max(res.s2m, b.s2m);
+    kept = true;
   }
   return res;
 }
@@ -709,7 +925,8 @@ struct Node {
 // the node's rounding allowance.
 double node_lower(const Node& node, double scale) {
   Vec3 lo(kInf), hi(-kInf);
-  std::vector<Vec3> pts(node.h.size());
+  thread_local std::vector<Vec3> pts;  // reused across calls (no allocation per node)
+  pts.resize(node.h.size());
   for (size_t k = 0; k < node.h.size(); ++k) {
     pts[k] = Vec3(node.h[k][0], node.h[k][1], node.h[k][2]) / node.h[k][3];
     lo = glm::min(lo, pts[k]);
@@ -746,7 +963,7 @@ void split(const Node& node, bool along_u, Node& left, Node& right) {
   ++right.depth;
   const int count = along_u ? n : m;
   const int lines = along_u ? m + 1 : n + 1;
-  std::vector<H> w(static_cast<size_t>(count + 1));
+  H w[kMaxDegree + 1];
   for (int line = 0; line < lines; ++line) {
     auto idx = [&](int k) { return static_cast<size_t>(along_u ? k * (m + 1) + line : line * (m + 1) + k); };
     for (int k = 0; k <= count; ++k) w[k] = node.h[idx(k)];
@@ -921,11 +1138,12 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
     if ((t & 1023u) == 0) budget::check("validation");  // a million triangles take seconds here
     const auto T = triangle_corners(mesh, t);
     const auto& uv = mesh.triangle_uv[t];
-    const BezierPatch& patch = *pd[mesh.triangle_patch[t]].patch;
+    const PatchData& P = pd[mesh.triangle_patch[t]];
+    const BezierPatch& patch = *P.patch;
     const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
     for (const Vec3& b : bs) {
       const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
-      const Vec2 q = project(patch, x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
+      const Vec2 q = P.project(x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
       const double e = norm(x - eval(patch, q));
       if (e >= est.value[t]) {
         est.value[t] = e;
