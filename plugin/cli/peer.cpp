@@ -22,7 +22,6 @@ struct PeerCliOptions {
   double angle = 0.5;
   bool relative = false;
   int max_depth = 8;
-  int reference_segments = 0;
   std::string out;
   std::string json;
 };
@@ -40,7 +39,6 @@ occt::PeerOptions peer_options(const PeerCliOptions& o) {
   options.angle = o.angle;
   options.relative = o.relative;
   options.certify.max_depth = o.max_depth;
-  options.reference_segments = o.reference_segments;
   return options;
 }
 
@@ -180,9 +178,6 @@ Command register_peer(CLI::App& app) {
   cmd->add_option("--angle", o->angle, "BRepMesh angular deflection (radians)")->capture_default_str();
   cmd->add_flag("--relative", o->relative, "Deflection relative to each edge's size");
   cmd->add_option("--max-depth", o->max_depth, "Validator subdivision budget per triangle (0..10)")->capture_default_str();
-  cmd->add_option("--reference-segments", o->reference_segments,
-                  "Reference segments per patch side when the mesh has no per-vertex patch (0: automatic)")
-      ->check(CLI::Range(0, 1024));
   cmd->add_option("--out", o->out, "OCCT's mesh (the validated faces): .obj, .ply or .stl, written atomically");
   cmd->add_option("--json", o->json, "Report: triangles, mesh_seconds, route, hausdorff {lower, upper}, topology, CAD face counts");
   return {peer, [o, cmd] {

@@ -50,7 +50,8 @@ class MeshCollector {
     const Handle(Poly_Triangulation) tri = BRep_Tool::Triangulation(face, loc);
     if (tri.IsNull()) return -1;
     const gp_Trsf trsf = loc.Transformation();
-    const bool uv = patch >= 0 && tri->HasUVNodes();
+    if (patch >= 0 && !tri->HasUVNodes()) throw InputError("OCCT's triangulation of patch " + std::to_string(patch) + " has no (u, v) nodes");
+    const bool uv = patch >= 0;
     std::vector<uint32_t> id(static_cast<size_t>(tri->NbNodes()) + 1);
     std::vector<Vec2> node_uv(id.size());
     for (int n = 1; n <= tri->NbNodes(); ++n) {
@@ -108,23 +109,10 @@ void run_mesher(const TopoDS_Shape& shape, const PeerOptions& o, PeerResult& r) 
   r.mesh_seconds = seconds_since(start);
 }
 
-int reference_segments_for(const PeerOptions& o, size_t patches) {
-  if (o.reference_segments > 0) return o.reference_segments;
-  const double per_patch = 1e6 / static_cast<double>(std::max<size_t>(patches, 1));
-  return std::clamp(static_cast<int>(std::sqrt(per_patch)), 2, 32);
-}
-
 void validate(const Model& model, PeerResult& r, const PeerOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   if (r.mesh.triangles.empty()) throw InputError(model.name + ": OCCT produced no triangles on the faces that can be validated");
-  if (r.route == "bernstein") {
-    r.distance = certify_distance(model, r.mesh, o.certify);
-  } else {
-    ExternalOptions e;
-    e.certify = o.certify;
-    e.reference_segments = reference_segments_for(o, model.patches.size());
-    r.distance = certify_external(model, r.mesh, e);
-  }
+  r.distance = certify_distance(model, r.mesh, o.certify);
   r.validate_seconds = seconds_since(start);
 }
 

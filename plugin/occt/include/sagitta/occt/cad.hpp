@@ -78,9 +78,6 @@ struct PeerOptions {
   double angle = 0.5;        // BRepMesh angular deflection (radians)
   bool relative = false;     // deflection relative to each edge's size (BRepMesh's "relative" mode)
   CertifyOptions certify;
-  // certify_external's reference segments per patch side when the (u, v) route does not apply;
-  // 0 picks about 2 million reference triangles in all (between 2 and 32 segments per side).
-  int reference_segments = 0;
 };
 
 struct PeerResult {
@@ -91,7 +88,7 @@ struct PeerResult {
   int faces_meshed = 0;            // faces that received a triangulation
   int faces_without_mesh = 0;
   // "bernstein": every face is one Bézier patch and each vertex carries its (patch, u, v), so the
-  // validator's own-mesh certificate applies; "reference": certify_external (no per-vertex patch).
+  // validator's own-mesh certificate applies.
   std::string route;
   double max_node_offset = 0.0;  // largest |node - S(u, v)| over OCCT's nodes (bernstein route)
   DistanceReport distance;
