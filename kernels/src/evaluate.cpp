@@ -48,9 +48,8 @@ namespace {
 
 using H = std::array<double, 4>;
 
-// De Casteljau on homogeneous points; returns value and derivative d/dt.
-void curve_with_derivative(std::vector<H>& pts, double t, H& value, H& derivative) {
-  const int d = static_cast<int>(pts.size()) - 1;
+// De Casteljau on d + 1 homogeneous points (overwritten); returns value and derivative d/dt.
+void curve_with_derivative(H* pts, int d, double t, H& value, H& derivative) {
   for (int r = 1; r < d; ++r) {
     for (int k = 0; k <= d - r; ++k) {
       for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
@@ -87,21 +86,20 @@ Vec3 de_casteljau_curve(const std::vector<Vec3>& points, const std::vector<doubl
 
 SurfacePointEval evaluate_with_derivatives(const BezierPatch& patch, double u, double v) {
   const int n = patch.degree_u, m = patch.degree_v;
-  std::vector<H> along_v(static_cast<size_t>(m + 1));
-  std::vector<H> rows(static_cast<size_t>(n + 1)), drows(static_cast<size_t>(n + 1));
+  if (n > kMaxDegree || m > kMaxDegree) throw InputError("degree above 25");
+  // On the stack: the certifier evaluates this in its innermost loops.
+  H along_v[kMaxDegree + 1], rows[kMaxDegree + 1], drows[kMaxDegree + 1];
   for (int i = 0; i <= n; ++i) {
     for (int j = 0; j <= m; ++j) {
       const double w = patch.weight(i, j);
       const Vec3& p = patch.at(i, j);
-      along_v[static_cast<size_t>(j)] = {w * p.x, w * p.y, w * p.z, w};
+      along_v[j] = {w * p.x, w * p.y, w * p.z, w};
     }
-    curve_with_derivative(along_v, v, rows[static_cast<size_t>(i)], drows[static_cast<size_t>(i)]);
+    curve_with_derivative(along_v, m, v, rows[i], drows[i]);
   }
   H h, hu, hv, unused;
-  std::vector<H> work = rows;
-  curve_with_derivative(work, u, h, hu);
-  work = drows;
-  curve_with_derivative(work, u, hv, unused);
+  curve_with_derivative(rows, n, u, h, hu);
+  curve_with_derivative(drows, n, u, hv, unused);
   SurfacePointEval e;
   e.position = project(h);
   e.du = project_derivative(h, hu);

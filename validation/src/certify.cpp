@@ -328,43 +328,6 @@ double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scra
   return bound >= 0.0 ? bound : kInf;  // NaN (an overflow on the way) proves nothing
 }
 
-// De Casteljau on d + 1 homogeneous points (overwritten); value and derivative d/dt. The same
-// operations as evaluate_with_derivatives (kernels/src/evaluate.cpp), on the stack.
-void curve_with_derivative(H* pts, int d, double t, H& value, H& derivative) {
-  for (int r = 1; r < d; ++r) {
-    for (int k = 0; k <= d - r; ++k) {
-      for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
-    }
-  }
-  for (int c = 0; c < 4; ++c) {
-    value[c] = (1.0 - t) * pts[0][c] + t * pts[1][c];
-    derivative[c] = d * (pts[1][c] - pts[0][c]);
-  }
-}
-
-// evaluate_with_derivatives without heap allocations: bit for bit the same result.
-SurfacePointEval evaluate_with_derivatives_local(const BezierPatch& patch, double u, double v) {
-  const int n = patch.degree_u, m = patch.degree_v;
-  H along_v[kMaxDegree + 1], rows[kMaxDegree + 1], drows[kMaxDegree + 1];
-  for (int i = 0; i <= n; ++i) {
-    for (int j = 0; j <= m; ++j) {
-      const double w = patch.weight(i, j);
-      const Vec3& p = patch.at(i, j);
-      along_v[j] = {w * p.x, w * p.y, w * p.z, w};
-    }
-    curve_with_derivative(along_v, m, v, rows[i], drows[i]);
-  }
-  H h, hu, hv, unused;
-  curve_with_derivative(rows, n, u, h, hu);
-  curve_with_derivative(drows, n, u, hv, unused);
-  const auto point = [](const H& x) { return Vec3(x[0], x[1], x[2]) / x[3]; };
-  SurfacePointEval e;
-  e.position = point(h);
-  e.du = (Vec3(hu[0], hu[1], hu[2]) - e.position * hu[3]) / h[3];
-  e.dv = (Vec3(hv[0], hv[1], hv[2]) - e.position * hv[3]) / h[3];
-  return e;
-}
-
 // Damped Gauss-Newton projection of x onto the patch, seeded at q, clamped to the domain; a step is
 // accepted only when it brings the point closer (halved otherwise), so the result is never worse
 // than the seed (beyond rounding, in the final steps below). Any result is acceptable to the
@@ -376,7 +339,7 @@ SurfacePointEval evaluate_with_derivatives_local(const BezierPatch& patch, doubl
 // a translation of the model. Any parameters are sound; this makes them (nearly) translation
 // invariant.
 Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q) {
-  SurfacePointEval e = evaluate_with_derivatives_local(patch, q.x, q.y);
+  SurfacePointEval e = evaluate_with_derivatives(patch, q.x, q.y);
   double best = norm(x - e.position);
   for (int it = 0; it < 12; ++it) {
     const Vec3 r = x - e.position;
@@ -391,7 +354,7 @@ Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q) {
       // scaled model gave bounds 1e-9 apart). Here a plain Gauss-Newton step is kept while it
       // shrinks the gradient (r . du, r . dv), which converges to full precision.
       const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
-      const SurfacePointEval ne = evaluate_with_derivatives_local(patch, next.x, next.y);
+      const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
       const Vec3 nr = x - ne.position;
       if (norm(Vec2(glm::dot(ne.du, nr), glm::dot(ne.dv, nr))) >= norm(Vec2(ru, rv))) break;
       q = next;
@@ -401,7 +364,7 @@ Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q) {
     bool moved = false;
     for (int half = 0; half < 20 && !moved; ++half, step *= 0.5) {
       const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
-      const SurfacePointEval ne = evaluate_with_derivatives_local(patch, next.x, next.y);
+      const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
       const double d = norm(x - ne.position);
       if (d < best) {
         best = d;
