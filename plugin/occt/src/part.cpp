@@ -700,6 +700,8 @@ struct RangeCurve {
   bool same = true;
   Vec2 shift{0.0};
   bool reversed = false;  // the edge runs against its parameter in the loop
+  // The p-curve's parameter at edge parameter t.
+  double param(double t) const { return same || last == first ? t : f + (t - first) * (l - f) / (last - first); }
 };
 
 // The chord between loop points p and q of one edge, with its proven deviation from the p-curve.
@@ -707,9 +709,6 @@ BoundaryChord bound_chord(const FaceGeometry& g, const RangeCurve& rc, const Loo
   BoundaryChord c;
   c.a = p.vertex, c.b = q.vertex;
   c.uv_a = Vec2(p.q.x / g.su, p.q.y / g.sv), c.uv_b = Vec2(q.q.x / g.su, q.q.y / g.sv);
-  const auto param = [&](double t) {
-    return rc.same || rc.last == rc.first ? t : rc.f + (t - rc.first) * (rc.l - rc.f) / (rc.last - rc.first);
-  };
   detail::ParameterMap map;
   map.identity = g.identity_map;
   map.shift = rc.shift;
@@ -720,10 +719,10 @@ BoundaryChord bound_chord(const FaceGeometry& g, const RangeCurve& rc, const Loo
     const std::vector<double>& vb = g.report.v_breaks;
     map.to_uv_error = 1e-12 * std::max(ub.back() - ub.front(), vb.back() - vb.front());
   }
-  c.deviation = detail::chord_deviation(rc.pc, param(p.t), param(q.t), map, c.uv_a, c.uv_b);
+  c.deviation = detail::chord_deviation(rc.pc, rc.param(p.t), rc.param(q.t), map, c.uv_a, c.uv_b);
   for (int k = 0; k < 3; ++k) {
     const double t = p.t + 0.25 * (k + 1) * (q.t - p.t);
-    const gp_Pnt2d r = rc.pc->Value(param(t));
+    const gp_Pnt2d r = rc.pc->Value(rc.param(t));
     c.curve_points[k] = eval_uv(g, face_to_uv(g, r.X() + rc.shift.x, r.Y() + rc.shift.y));
     const double size = std::max({std::abs(c.curve_points[k].x), std::abs(c.curve_points[k].y),
                                   std::abs(c.curve_points[k].z)});
@@ -757,10 +756,9 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
       return;
     }
     const double first = s.t.front(), last = s.t.back();
-    const bool same = BRep_Tool::SameParameter(edge) && BRep_Tool::SameRange(edge);
+    RangeCurve rc{pc, f, l, first, last, BRep_Tool::SameParameter(edge) && BRep_Tool::SameRange(edge)};
     const auto raw = [&](double t) {
-      const double p = same || last == first ? t : f + (t - first) * (l - f) / (last - first);
-      const gp_Pnt2d uv = pc->Value(p);
+      const gp_Pnt2d uv = pc->Value(rc.param(t));
       return Vec2(uv.X(), uv.Y());
     };
     const bool reversed = edge.Orientation() == TopAbs_REVERSED;
@@ -792,7 +790,9 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
     }
     ranges.push_back({start, static_cast<uint32_t>(points.size())});
     range_edge.push_back(e);
-    range_curve.push_back({pc, f, l, first, last, same, shift, reversed});
+    rc.shift = shift;
+    rc.reversed = reversed;
+    range_curve.push_back(rc);
   };
   for (TopExp_Explorer w(g.face, TopAbs_WIRE); w.More(); w.Next()) {
     Vec2 previous_end(0.0);
@@ -1755,17 +1755,15 @@ void faces_from_vertices(PartBuilder& b, MeshOnShape& m, double part_size) {
     for (TopExp_Explorer it(face, TopAbs_EDGE); it.More(); it.Next()) {
       const TopoDS_Edge edge = TopoDS::Edge(it.Current());
       const int e = b.x.edges.FindIndex(edge) - 1;
+      if (e < 0 || b.edges[static_cast<size_t>(e)].t.size() < 2) continue;
       const EdgeSamples& s = b.edges[static_cast<size_t>(e)];
-      if (e < 0 || s.t.size() < 2) continue;
-      double pf = 0.0, pl = 0.0;
-      const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(edge, face, pf, pl);
-      if (pc.IsNull()) continue;
-      const bool same = BRep_Tool::SameParameter(edge) && BRep_Tool::SameRange(edge);
-      double first = 0.0, last = 0.0;
-      BRep_Tool::Range(edge, first, last);
+      RangeCurve rc;
+      rc.pc = BRep_Tool::CurveOnSurface(edge, face, rc.f, rc.l);
+      if (rc.pc.IsNull()) continue;
+      rc.same = BRep_Tool::SameParameter(edge) && BRep_Tool::SameRange(edge);
+      BRep_Tool::Range(edge, rc.first, rc.last);
       for (size_t k = 0; k < s.t.size(); ++k) {
-        const double t = same || last == first ? s.t[k] : pf + (s.t[k] - first) * (pl - pf) / (last - first);
-        const gp_Pnt2d q = pc->Value(t);
+        const gp_Pnt2d q = rc.pc->Value(rc.param(s.t[k]));
         on_edges.emplace(s.vertex[k], Vec2(q.X(), q.Y()));
       }
     }
