@@ -1905,20 +1905,33 @@ PartMesh mesh_on_shape(const TopoDS_Shape& shape, const std::string& name, const
         // vertex twice, 8e-11 apart in FreeCAD's mesh of pr1ct.stp): clusters of vertices within that
         // distance of each other become their first vertex; the largest move is added to every bound (PartMesh::welded).
         const double weld = 1e-9 * part_size;
-        std::vector<uint32_t> order(mesh.positions.size()), rep(mesh.positions.size());
-        for (uint32_t v = 0; v < order.size(); ++v) order[v] = v, rep[v] = v;
-        std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t c) { return mesh.positions[a].x < mesh.positions[c].x; });
+        std::vector<uint32_t> rep(mesh.positions.size());
+        for (uint32_t v = 0; v < rep.size(); ++v) rep[v] = v;
         const auto find = [&](uint32_t v) {
           while (rep[v] != v) v = rep[v] = rep[rep[v]];
           return v;
         };
-        for (size_t k = 0; k < order.size(); ++k) {
-          const uint32_t v = order[k];
-          for (size_t j = k; j-- > 0 && mesh.positions[v].x - mesh.positions[order[j]].x <= weld;) {
-            if (glm::length(mesh.positions[v] - mesh.positions[order[j]]) > weld) continue;
-            const uint32_t a = find(v), c = find(order[j]);
-            if (a != c) rep[std::max(a, c)] = std::min(a, c);
-          }
+        // Cells of the weld distance: two vertices within it lie in neighbouring cells (a sort along
+        // one axis would scan a whole plane of equal x).
+        const auto cell = [&](const Vec3& p) {
+          return std::array<int64_t, 3>{static_cast<int64_t>(std::floor(p.x / weld)), static_cast<int64_t>(std::floor(p.y / weld)),
+                                        static_cast<int64_t>(std::floor(p.z / weld))};
+        };
+        std::map<std::array<int64_t, 3>, std::vector<uint32_t>> cells;
+        for (uint32_t v = 0; v < rep.size(); ++v) {
+          const std::array<int64_t, 3> c = cell(mesh.positions[v]);
+          for (int64_t dx = -1; dx <= 1; ++dx)
+            for (int64_t dy = -1; dy <= 1; ++dy)
+              for (int64_t dz = -1; dz <= 1; ++dz) {
+                const auto near = cells.find({c[0] + dx, c[1] + dy, c[2] + dz});
+                if (near == cells.end()) continue;
+                for (const uint32_t u : near->second) {
+                  if (glm::length(mesh.positions[v] - mesh.positions[u]) > weld) continue;
+                  const uint32_t a = find(v), r = find(u);
+                  if (a != r) rep[std::max(a, r)] = std::min(a, r);
+                }
+              }
+          cells[c].push_back(v);
         }
         for (uint32_t v = 0; v < rep.size(); ++v) rep[v] = find(v);
         NodeIndex nodes(b);
