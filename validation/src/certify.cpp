@@ -2,6 +2,7 @@
 #include "sagitta/certify.hpp"
 
 #include "conditioning.hpp"
+#include "interpolation_bound.hpp"
 #include "mesh_distance.hpp"
 #include "sagitta/budget.hpp"
 #include "sagitta/evaluate.hpp"
@@ -619,10 +620,14 @@ void bound_surface_to_mesh(const PatchData& P, const LeafCorners& c, const std::
     sp[i] = d.sp;
   }
   std::vector<std::array<Vec3, 3>> targets = s2m_targets ? *s2m_targets : std::vector<std::array<Vec3, 3>>{T};
-  // The mesh triangles nearest to each corner (found by the AABB tree) are candidates too.
+  // The mesh triangle nearest to a corner (found by the AABB tree) is a candidate too where it is
+  // closer to that corner than the given targets (a tie, as at a mesh vertex, gains nothing).
   for (int i = 0; i < 3; ++i) {
     const CornerData& d = *c.data[i];
-    if (d.near_found && std::find(targets.begin(), targets.end(), d.near) == targets.end()) targets.push_back(d.near);
+    if (!d.near_found || std::find(targets.begin(), targets.end(), d.near) != targets.end()) continue;
+    double given = kInf;
+    for (const auto& t : targets) given = std::min(given, norm(sp[i] - closest_on_triangle(sp[i], t[0], t[1], t[2])));
+    if (norm(sp[i] - closest_on_triangle(sp[i], d.near[0], d.near[1], d.near[2])) < given) targets.push_back(d.near);
   }
   double corner_distance[3] = {kInf, kInf, kInf};
   for (const auto& target : targets) {
@@ -782,8 +787,18 @@ std::vector<Hole> collapsed_side_holes(const Model& model, const Tessellation& m
       if (std::tie(b.x, b.y) < std::tie(a.x, a.y)) std::swap(a, b);
       return Key{{a.x, a.y, b.x, b.y}};
     };
+    // Only edges touching a collapsed side matter below.
+    const auto touches = [&](const Vec2& a, const Vec2& b) {
+      for (Side sd : collapsed) {
+        if (on_side(a, sd) || on_side(b, sd)) return true;
+      }
+      return false;
+    };
     for (size_t t : by_patch[p]) {
-      for (int k = 0; k < 3; ++k) ++uses[key(mesh.triangle_uv[t][k], mesh.triangle_uv[t][(k + 1) % 3])];
+      for (int k = 0; k < 3; ++k) {
+        const Vec2 a = mesh.triangle_uv[t][k], b = mesh.triangle_uv[t][(k + 1) % 3];
+        if (touches(a, b)) ++uses[key(a, b)];
+      }
     }
     // Interior end point -> (side point uv, mesh position of each end) of open edges touching a side.
     struct Spoke {
@@ -796,7 +811,7 @@ std::vector<Hole> collapsed_side_holes(const Model& model, const Tessellation& m
     for (size_t t : by_patch[p]) {
       for (int k = 0; k < 3; ++k) {
         const Vec2 a = mesh.triangle_uv[t][k], b = mesh.triangle_uv[t][(k + 1) % 3];
-        if (uses[key(a, b)] != 1) continue;
+        if (!touches(a, b) || uses[key(a, b)] != 1) continue;
         const Vec3 pa = mesh.positions[mesh.triangles[t][k]], pb = mesh.positions[mesh.triangles[t][(k + 1) % 3]];
         for (Side sd : collapsed) {
           if (on_side(a, sd) && !on_side(b, sd)) spokes[{b.x, b.y}].push_back({a, pa, pb, int(sd), int64_t(t)});
@@ -1089,32 +1104,149 @@ struct Estimates {
   std::vector<Vec2> uv;
 };
 
-// Pass 1: an estimate of the distance (projection residuals at centroids and edge midpoints),
-// which sets the refinement target.
-Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchData>& pd) {
+// |S(q) - X| for a mesh point X meant to be S(q), plus the evaluation's rounding (as for the lower
+// bounds' witnesses): a bound on the exact distance.
+double corner_offset(const PatchData& P, Vec2 q, const Vec3& X) {
+  const double eval_err = 4.0 * (P.n + P.m + 2) * kUnit * (P.hmag / P.wmin + norm(P.origin)) * P.wmax / P.wmin;
+  return norm(eval(*P.patch, q) - X) + eval_err;
+}
+
+// The cheap bounds of pass 0: per patch a curvature grid, per triangle the bound.
+struct CheapBounds {
+  std::vector<detail::CurvatureGrid> grids;
+  std::vector<double> triangle;
+  // A bound on both directions for the mesh triangle X over the (u, v) triangle q of patch P whose
+  // corners are `offsets` from their exact surface points: the interpolation bound plus the largest
+  // offset, or (no grid) the exact composed bound.
+  double bound(const PatchData& P, size_t patch, const Vec2 q[3], const Vec3 X[3], const double offsets[3],
+               Scratch& s) const {
+    double b = grids[patch].interpolation_bound(q);
+    if (std::isfinite(b)) b = (b + std::max({offsets[0], offsets[1], offsets[2]})) * (1.0 + 1e-9);
+    if (!(b < kInf)) b = composed_bound(P, q, X, s);
+    return b >= 0.0 ? b : kInf;  // NaN proves nothing
+  }
+};
+
+// Pass 0: per triangle, a cheap proven bound on both directions over it (the mesh triangle against
+// the surface over its own (u, v)): the curvature grid's interpolation bound plus the corners'
+// distances to their exact surface points; where no grid applies (rational patches, (u, v) outside
+// [0, 1]^2) the exact composed bound. Most triangles are settled by it (docs/VALIDATION.md).
+CheapBounds cheap_triangle_bounds(const Tessellation& mesh, const std::vector<PatchData>& pd) {
+  const size_t count = mesh.triangles.size();
+  std::vector<size_t> per_patch(pd.size(), 0);
+  for (uint32_t p : mesh.triangle_patch) ++per_patch[p];
+  // A grid of up to 16 x 16 boxes, about 8 triangles or more per box.
+  CheapBounds cb;
+  cb.grids.resize(pd.size());
+  tbb::parallel_for(size_t(0), pd.size(), [&](size_t p) {
+    int cells = 1;
+    while (cells < 16 && size_t(4 * cells * cells * 8) <= per_patch[p]) cells *= 2;
+    if (per_patch[p] > 0) cb.grids[p] = detail::CurvatureGrid(*pd[p].patch, cells);
+  });
+  // One evaluation per vertex: the first corner listing it (on a patch with a grid) sets its
+  // (patch, (u, v)); corners that agree bit for bit reuse it, others evaluate their own.
+  constexpr uint64_t kNone = ~uint64_t(0);
+  std::vector<uint64_t> owner(mesh.positions.size(), kNone);
+  for (size_t t = 0; t < count; ++t) {
+    if (cb.grids[mesh.triangle_patch[t]].empty()) continue;
+    for (int c = 0; c < 3; ++c) {
+      uint64_t& o = owner[mesh.triangles[t][c]];
+      if (o == kNone) o = 3 * t + c;
+    }
+  }
+  std::vector<double> offset(mesh.positions.size(), 0.0);
+  tbb::parallel_for(size_t(0), owner.size(), [&](size_t v) {
+    if (owner[v] == kNone) return;
+    const size_t t = owner[v] / 3, c = owner[v] % 3;
+    offset[v] = corner_offset(pd[mesh.triangle_patch[t]], mesh.triangle_uv[t][c], mesh.positions[v]);
+  });
+  cb.triangle.assign(count, kInf);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const tbb::blocked_range<size_t>& range) {
+    Scratch s;
+    budget::check("validation");
+    for (size_t t = range.begin(); t != range.end(); ++t) {
+      const uint32_t patch = mesh.triangle_patch[t];
+      const PatchData& P = pd[patch];
+      const Vec2 q[3] = {mesh.triangle_uv[t][0], mesh.triangle_uv[t][1], mesh.triangle_uv[t][2]};
+      const auto T = triangle_corners(mesh, t);
+      const Vec3 X[3] = {T[0], T[1], T[2]};
+      double offsets[3] = {0.0, 0.0, 0.0};
+      if (!cb.grids[patch].empty()) {
+        for (int c = 0; c < 3; ++c) {
+          const uint32_t v = mesh.triangles[t][c];
+          const uint64_t o = owner[v];
+          const bool shared =
+              o != kNone && mesh.triangle_patch[o / 3] == patch && mesh.triangle_uv[o / 3][o % 3] == q[c];
+          offsets[c] = shared ? offset[v] : corner_offset(P, q[c], X[c]);
+        }
+      }
+      cb.triangle[t] = cb.bound(P, patch, q, X, offsets, s);
+    }
+  });
+  return cb;
+}
+
+// The same bound for each hole (its corners are mesh points too).
+std::vector<double> cheap_hole_bounds(const std::vector<Hole>& holes, const std::vector<PatchData>& pd,
+                                      const CheapBounds& cb) {
+  std::vector<double> bound(holes.size(), kInf);
+  tbb::parallel_for(size_t(0), holes.size(), [&](size_t i) {
+    Scratch s;
+    const Hole& h = holes[i];
+    const PatchData& P = pd[h.patch];
+    const Vec2 q[3] = {h.uv[0], h.uv[1], h.uv[2]};
+    const Vec3 X[3] = {h.X[0], h.X[1], h.X[2]};
+    double offsets[3];
+    for (int c = 0; c < 3; ++c) offsets[c] = corner_offset(P, q[c], X[c]);
+    bound[i] = cb.bound(P, h.patch, q, X, offsets, s);
+  });
+  return bound;
+}
+
+// Pass 1: an estimate of the distance (projection residuals at centroids and edge midpoints), which
+// sets the refinement target. Only the largest estimates matter, and a triangle's residuals are at
+// most its cheap bound (each point x = sum b_i X_i is within the bound of S(sum b_i q_i), where its
+// projection starts): triangles are visited by decreasing bound until the next bound is below the
+// largest residual seen. `visited` marks the triangles estimated; the others keep 0.
+Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchData>& pd,
+                              const std::vector<double>& cheap, std::vector<char>& visited) {
   const size_t count = mesh.triangles.size();
   Estimates est;
   est.value.assign(count, 0.0);
   est.point.resize(count);
   est.uv.resize(count);
-  tbb::parallel_for(size_t(0), count, [&](size_t t) {
-    if ((t & 1023u) == 0) budget::check("validation");  // a million triangles take seconds here
-    const auto T = triangle_corners(mesh, t);
-    const auto& uv = mesh.triangle_uv[t];
-    const PatchData& P = pd[mesh.triangle_patch[t]];
-    const BezierPatch& patch = *P.patch;
-    const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
-    for (const Vec3& b : bs) {
-      const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
-      const Vec2 q = P.project(x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
-      const double e = norm(x - eval(patch, q));
-      if (e >= est.value[t]) {
-        est.value[t] = e;
-        est.point[t] = x;
-        est.uv[t] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
+  visited.assign(count, 0);
+  std::vector<size_t> order(count);
+  std::iota(order.begin(), order.end(), size_t(0));
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return cheap[a] > cheap[b]; });
+  double largest = 0.0;
+  size_t next = 0;
+  while (next < count && cheap[order[next]] > largest) {
+    size_t end = next;
+    while (end < count && end - next < 1024 && cheap[order[end]] > largest) ++end;
+    tbb::parallel_for(next, end, [&](size_t i) {
+      const size_t t = order[i];
+      if ((i & 1023u) == 0) budget::check("validation");
+      const auto T = triangle_corners(mesh, t);
+      const auto& uv = mesh.triangle_uv[t];
+      const PatchData& P = pd[mesh.triangle_patch[t]];
+      const BezierPatch& patch = *P.patch;
+      const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
+      for (const Vec3& b : bs) {
+        const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
+        const Vec2 q = P.project(x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
+        const double e = norm(x - eval(patch, q));
+        if (e >= est.value[t]) {
+          est.value[t] = e;
+          est.point[t] = x;
+          est.uv[t] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
+        }
       }
-    }
-  });
+      visited[t] = 1;
+    });
+    for (size_t i = next; i < end; ++i) largest = std::max(largest, est.value[order[i]]);
+    next = end;
+  }
   return est;
 }
 
@@ -1207,6 +1339,13 @@ struct Refinement {
   const std::vector<std::vector<uint32_t>>& near;
   const detail::MeshDistance& mesh_distance;
   double tau;
+  // Triangles whose cheap bound is at most `settled` keep it: no refinement could raise the
+  // overall bound above the largest estimate through them.
+  const std::vector<double>& cheap;
+  double settled;
+  // Triangles around each vertex (offsets into ring_triangles, by vertex).
+  const std::vector<uint32_t>& ring_start;
+  const std::vector<uint32_t>& ring_triangles;
   // The mesh triangle nearest to p (false for an empty mesh).
   bool nearest(const Vec3& p, std::array<Vec3, 3>& tri) const {
     const int64_t t = mesh_distance.closest_triangle(p);
@@ -1214,7 +1353,39 @@ struct Refinement {
     tri = triangle_corners(mesh, static_cast<size_t>(t));
     return true;
   }
+  // Of the triangles sharing a vertex with triangle t, one nearest to p: where the mesh follows the
+  // surface within a fraction of its triangles' size (the triangles refined here), a surface point
+  // over t is nearest to one of them. Only a candidate for the bounds (any triangle is sound).
+  bool nearest_around(size_t t, const Vec3& p, std::array<Vec3, 3>& tri) const {
+    double best = kInf;
+    for (uint32_t v : mesh.triangles[t]) {
+      for (uint32_t k = ring_start[v]; k < ring_start[v + 1]; ++k) {
+        const auto T = triangle_corners(mesh, ring_triangles[k]);
+        const Vec3 d = p - closest_on_triangle(p, T[0], T[1], T[2]);
+        const double d2 = glm::dot(d, d);
+        if (d2 < best) {
+          best = d2;
+          tri = T;
+        }
+      }
+    }
+    return best < kInf;
+  }
 };
+
+// The triangles around each vertex (compressed rows: start has one entry per vertex plus one).
+void vertex_rings(const Tessellation& mesh, std::vector<uint32_t>& start, std::vector<uint32_t>& triangles) {
+  start.assign(mesh.positions.size() + 1, 0);
+  for (const Triangle& t : mesh.triangles) {
+    for (uint32_t v : t) ++start[v + 1];
+  }
+  for (size_t v = 0; v + 1 < start.size(); ++v) start[v + 1] += start[v];
+  triangles.resize(start.back());
+  std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    for (uint32_t v : mesh.triangles[i]) triangles[fill[v]++] = static_cast<uint32_t>(i);
+  }
+}
 
 // Pass 2: every triangle refined; each keeps the larger of its pass-1 estimate and the refinement's
 // as the candidate for the lower bounds.
@@ -1222,15 +1393,21 @@ std::vector<TriangleResult> refine_triangles(const Refinement& rf, const Estimat
   const Tessellation& mesh = rf.mesh;
   const CertifyOptions& options = rf.options;
   const size_t count = mesh.triangles.size();
-  const auto nearest = [&](const Vec3& p, std::array<Vec3, 3>& tri) { return rf.nearest(p, tri); };
   std::vector<TriangleResult> results(count);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 64), [&](const tbb::blocked_range<size_t>& range) {
     Scratch s;
     for (size_t t = range.begin(); t != range.end(); ++t) {
-      results[t] =
-          refine_triangle(rf.pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], triangle_corners(mesh, t), rf.tau,
-                          options.target_ratio, options.max_depth, s, false, nullptr, nearest,
-                          OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]}, static_cast<bool>(options.in_domain));
+      if (rf.cheap[t] <= rf.settled) {
+        results[t] = TriangleResult{};
+        results[t].m2s = results[t].s2m = rf.cheap[t];
+        results[t].leaves = 1;
+      } else {
+        const auto nearest = [&rf, t](const Vec3& p, std::array<Vec3, 3>& tri) { return rf.nearest_around(t, p, tri); };
+        results[t] =
+            refine_triangle(rf.pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], triangle_corners(mesh, t), rf.tau,
+                            options.target_ratio, options.max_depth, s, false, nullptr, nearest,
+                            OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]}, static_cast<bool>(options.in_domain));
+      }
       if (results[t].m2s_est < est.value[t]) {
         results[t].m2s_est = est.value[t];
         results[t].m2s_point = est.point[t];
@@ -1245,11 +1422,17 @@ std::vector<TriangleResult> refine_triangles(const Refinement& rf, const Estimat
 }
 
 // Dropped degenerate triangles next to collapsed sides: surface->mesh only.
-std::vector<TriangleResult> refine_holes(const Refinement& rf, const std::vector<Hole>& holes) {
+std::vector<TriangleResult> refine_holes(const Refinement& rf, const std::vector<Hole>& holes,
+                                         const std::vector<double>& cheap) {
   const CertifyOptions& options = rf.options;
   const auto nearest = [&](const Vec3& p, std::array<Vec3, 3>& tri) { return rf.nearest(p, tri); };
   std::vector<TriangleResult> hole_results(holes.size());
   tbb::parallel_for(size_t(0), holes.size(), [&](size_t i) {
+    if (cheap[i] <= rf.settled) {  // the surface over the hole is within cheap[i] of its mesh edge
+      hole_results[i].s2m = cheap[i];
+      hole_results[i].leaves = 1;
+      return;
+    }
     Scratch s;
     hole_results[i] = refine_triangle(rf.pd[holes[i].patch], holes[i].uv, holes[i].X, rf.tau, options.target_ratio,
                                       options.max_depth, s, true, &holes[i].neighbours, nearest);
@@ -1293,6 +1476,88 @@ double worst_triangle_rounding(const Tessellation& mesh, const std::vector<Patch
   return 8.0 * (P.n + P.m + 1 + 4) * kUnit * (P.hmag + P.wmax * xmag) / P.wmin + 4.0 * kUnit * P.lipschitz;
 }
 
+// The mesh triangles that can be nearest to a query point of pass 2 or of the lower bounds: every
+// such point is a surface point over a triangle that is refined (cheap bound above `settled`) or was
+// estimated, or over a hole, within that triangle's bound r of the triangle itself; so its nearest
+// mesh triangle is within r too, and its box meets the triangle's box grown by 2 r. Empty when that
+// is most of the mesh (the caller then indexes all of it) or a bound is infinite.
+double largest_component(const Vec3& v) { return std::max({v.x, v.y, v.z}); }
+
+std::vector<uint32_t> triangles_near_queries(const Tessellation& mesh, const std::vector<double>& cheap, double settled,
+                                             const std::vector<char>& visited, const std::vector<Hole>& holes,
+                                             const std::vector<double>& hole_cheap) {
+  const size_t count = mesh.triangles.size();
+  std::vector<Box> queries;
+  const auto add_query = [&](const std::array<Vec3, 3>& T, double r) {
+    if (!(r < kInf)) return false;
+    Box box{glm::min(glm::min(T[0], T[1]), T[2]), glm::max(glm::max(T[0], T[1]), T[2])};
+    // 2 r, plus a margin for the rounding of the query points and of the boxes (1e-9 relative).
+    const Vec3 grow = Vec3(2.0 * r) + 1e-9 * (glm::abs(box.lo) + glm::abs(box.hi) + Vec3(r));
+    queries.push_back({box.lo - grow, box.hi + grow});
+    return true;
+  };
+  for (size_t t = 0; t < count; ++t) {
+    if (visited[t] || !(cheap[t] <= settled)) {
+      if (!add_query(triangle_corners(mesh, t), cheap[t])) return {};
+    }
+  }
+  for (size_t i = 0; i < holes.size(); ++i) {
+    if (!(hole_cheap[i] <= settled) && !add_query(holes[i].X, hole_cheap[i])) return {};
+  }
+  if (queries.empty() || 2 * queries.size() > count) return {};
+  // Voxels of about the mean query size over the mesh's box: those a query box meets are marked,
+  // and a triangle is chosen when its box meets a marked voxel (a superset of the boxes meeting a
+  // query box).
+  Box world{Vec3(kInf), Vec3(-kInf)};
+  for (const Vec3& p : mesh.positions) {
+    world.lo = glm::min(world.lo, p);
+    world.hi = glm::max(world.hi, p);
+  }
+  const Vec3 extent = world.hi - world.lo;
+  double mean = 0.0;
+  for (const Box& q : queries) mean += largest_component(q.hi - q.lo) / static_cast<double>(queries.size());
+  const double cell = std::max({mean, largest_component(extent) / 256.0, std::numeric_limits<double>::min()});
+  if (!std::isfinite(cell) || !std::isfinite(largest_component(extent))) return {};
+  int dims[3];
+  for (int k = 0; k < 3; ++k) dims[k] = std::clamp(static_cast<int>(extent[k] / cell) + 1, 1, 256);
+  const auto voxel = [&](double x, int k) {
+    return std::clamp(static_cast<int>((x - world.lo[k]) / extent[k] * dims[k]), 0, dims[k] - 1);
+  };
+  const auto range = [&](const Box& b, int lo[3], int hi[3]) {
+    for (int k = 0; k < 3; ++k) {
+      if (!(extent[k] > 0.0)) {
+        lo[k] = hi[k] = 0;
+        continue;
+      }
+      lo[k] = voxel(b.lo[k], k);
+      hi[k] = voxel(b.hi[k], k);
+    }
+  };
+  std::vector<char> marked(static_cast<size_t>(dims[0]) * dims[1] * dims[2], 0);
+  const auto index = [&](int x, int y, int z) { return (static_cast<size_t>(x) * dims[1] + y) * dims[2] + z; };
+  for (const Box& q : queries) {
+    int lo[3], hi[3];
+    range(q, lo, hi);
+    for (int x = lo[0]; x <= hi[0]; ++x)
+      for (int y = lo[1]; y <= hi[1]; ++y)
+        for (int z = lo[2]; z <= hi[2]; ++z) marked[index(x, y, z)] = 1;
+  }
+  std::vector<uint32_t> subset;
+  for (size_t t = 0; t < count; ++t) {
+    const auto T = triangle_corners(mesh, t);
+    const Box b{glm::min(glm::min(T[0], T[1]), T[2]), glm::max(glm::max(T[0], T[1]), T[2])};
+    int lo[3], hi[3];
+    range(b, lo, hi);
+    bool chosen = false;
+    for (int x = lo[0]; x <= hi[0] && !chosen; ++x)
+      for (int y = lo[1]; y <= hi[1] && !chosen; ++y)
+        for (int z = lo[2]; z <= hi[2] && !chosen; ++z) chosen = marked[index(x, y, z)] != 0;
+    if (chosen) subset.push_back(static_cast<uint32_t>(t));
+  }
+  if (2 * subset.size() > count) return {};
+  return subset;
+}
+
 // The Hausdorff interval from the two one-sided ones; the witness of the larger lower bound.
 void set_hausdorff(DistanceReport& report) {
   report.hausdorff.lower = std::max(report.mesh_to_surface.lower, report.surface_to_mesh.lower);
@@ -1318,7 +1583,10 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
   std::vector<PatchData> pd;
   pd.reserve(model.patches.size());
   for (const BezierPatch& p : model.patches) pd.push_back(make_patch_data(p));
-  Estimates est = own_patch_estimates(mesh, pd);
+  const CheapBounds cheap_bounds = cheap_triangle_bounds(mesh, pd);
+  const std::vector<double>& cheap = cheap_bounds.triangle;
+  std::vector<char> visited;
+  Estimates est = own_patch_estimates(mesh, pd, cheap, visited);
   std::vector<Box> patch_boxes(model.patches.size());
   for (size_t p = 0; p < model.patches.size(); ++p) patch_boxes[p] = control_box(model.patches[p]);
   std::vector<std::vector<uint32_t>> near(mesh.triangles.size());
@@ -1329,16 +1597,24 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
   const double estimate = *std::max_element(est.value.begin(), est.value.end());
   // Refinement target; the floor (1e-12 of the model's size, near the rounding term) stops exact
   // meshes (planar patches) from refining to the depth budget for nothing.
-  const double tau = std::max(options.target_ratio * estimate,
-                              std::max(1e-12, options.refine_floor) * model_box(model).diagonal());
-  // Pass 2: refinement.
-  const detail::MeshDistance mesh_distance(mesh);
-  const Refinement rf{model, mesh, options, pd, patch_boxes, near, mesh_distance, tau};
-  const std::vector<TriangleResult> results = refine_triangles(rf, est);
+  const double floor = std::max(1e-12, options.refine_floor) * model_box(model).diagonal();
+  const double tau = std::max(options.target_ratio * estimate, floor);
+  // A triangle whose cheap bound is at most the largest estimate (or the floor) keeps that bound.
+  const double settled = std::max(estimate, floor);
   // Dropped degenerate triangles next to collapsed sides: surface->mesh only.
   // (Not with a restricted domain: there coverage is the caller's to prove.)
   const std::vector<Hole> holes = options.in_domain ? std::vector<Hole>{} : collapsed_side_holes(model, mesh);
-  const std::vector<TriangleResult> hole_results = refine_holes(rf, holes);
+  // Pass 2: refinement. The mesh's AABB tree answers nearest-triangle queries from the triangles
+  // refined or estimated and from the holes only, so it holds only the triangles near those.
+  const std::vector<double> hole_cheap = cheap_hole_bounds(holes, pd, cheap_bounds);
+  const std::vector<uint32_t> near_queries = triangles_near_queries(mesh, cheap, settled, visited, holes, hole_cheap);
+  const detail::MeshDistance mesh_distance(mesh, near_queries.empty() ? nullptr : &near_queries);
+  std::vector<uint32_t> ring_start, ring_triangles;
+  vertex_rings(mesh, ring_start, ring_triangles);
+  const Refinement rf{model,         mesh, options, pd,      patch_boxes, near,
+                      mesh_distance, tau,  cheap,   settled, ring_start,  ring_triangles};
+  const std::vector<TriangleResult> results = refine_triangles(rf, est);
+  const std::vector<TriangleResult> hole_results = refine_holes(rf, holes, hole_cheap);
   const Uppers upper = collect_uppers(results, hole_results, report);
   report.rounding = worst_triangle_rounding(mesh, pd, report.triangle_upper);
   if (options.in_domain) {

@@ -134,10 +134,10 @@ void check_vertex_indices(const Tessellation& mesh) {
   }
 }
 
-// Degenerate and duplicated faces.
+// Degenerate and duplicated faces (a duplicate is a triangle with the vertex set of an earlier one).
 void find_degenerate_and_duplicated(const Tessellation& mesh, Findings& f) {
   TopologyReport& r = f.r;
-  std::unordered_set<std::string> seen_faces;
+  std::vector<std::pair<Triangle, uint32_t>> sorted(mesh.triangles.size());
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
     const Triangle& t = mesh.triangles[i];
     const bool same_index = t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
@@ -148,29 +148,72 @@ void find_degenerate_and_duplicated(const Tessellation& mesh, Findings& f) {
     }
     Triangle s = t;
     std::sort(s.begin(), s.end());
-    std::string key(reinterpret_cast<const char*>(s.data()), sizeof(s));
-    if (!seen_faces.insert(std::move(key)).second) {
-      ++r.duplicated_faces;
-      f.add({"duplicated_face", centroid(mesh, t), patch_of(mesh, i), static_cast<int64_t>(i), {t[0], t[1]}});
-    }
+    sorted[i] = {s, static_cast<uint32_t>(i)};
+  }
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<uint32_t> duplicates;
+  for (size_t k = 1; k < sorted.size(); ++k) {
+    if (sorted[k].first == sorted[k - 1].first) duplicates.push_back(sorted[k].second);
+  }
+  std::sort(duplicates.begin(), duplicates.end());
+  for (uint32_t i : duplicates) {
+    const Triangle& t = mesh.triangles[i];
+    ++r.duplicated_faces;
+    f.add({"duplicated_face", centroid(mesh, t), patch_of(mesh, i), static_cast<int64_t>(i), {t[0], t[1]}});
   }
 }
 
-using EdgeUses = std::unordered_map<uint64_t, EdgeUse>;
+// The mesh's edges (vertex pairs with a != b) in increasing key order, with their uses.
+struct EdgeUses {
+  std::vector<uint64_t> keys;
+  std::vector<EdgeUse> uses;
+  size_t size() const { return keys.size(); }
+  // The uses of edge (a, b); nullptr when no triangle has it.
+  const EdgeUse* find(uint64_t key) const {
+    const auto it = std::lower_bound(keys.begin(), keys.end(), key);
+    return it != keys.end() && *it == key ? &uses[static_cast<size_t>(it - keys.begin())] : nullptr;
+  }
+};
 
-// Edge uses.
+// Edge uses, bucketed by the smaller vertex (counting sort), each bucket sorted by the larger one.
 EdgeUses count_edge_uses(const Tessellation& mesh) {
-  EdgeUses edges;
-  edges.reserve(mesh.triangles.size() * 2);
+  const size_t vertices = mesh.positions.size();
+  std::vector<uint32_t> start(vertices + 1, 0);
+  for (const Triangle& t : mesh.triangles) {
+    for (int k = 0; k < 3; ++k) {
+      if (t[k] != t[(k + 1) % 3]) ++start[std::min(t[k], t[(k + 1) % 3]) + 1];
+    }
+  }
+  for (size_t v = 0; v < vertices; ++v) start[v + 1] += start[v];
+  struct HalfEdge {
+    uint32_t other, triangle;
+    bool forward;
+  };
+  std::vector<HalfEdge> half(start[vertices]);
+  std::vector<uint32_t> fill(start.begin(), start.end() - 1);
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
     const Triangle& t = mesh.triangles[i];
     for (int k = 0; k < 3; ++k) {
       const uint32_t a = t[k], b = t[(k + 1) % 3];
       if (a == b) continue;
-      EdgeUse& e = edges[edge_key(a, b)];
-      if (e.count == 0) e.triangle = static_cast<uint32_t>(i);
+      half[fill[std::min(a, b)]++] = {std::max(a, b), static_cast<uint32_t>(i), a < b};
+    }
+  }
+  EdgeUses edges;
+  edges.keys.reserve(half.size() / 2 + 1);
+  edges.uses.reserve(half.size() / 2 + 1);
+  for (size_t v = 0; v < vertices; ++v) {
+    const auto first = half.begin() + start[v], last = half.begin() + start[v + 1];
+    // Stable: within one edge the uses stay in triangle order, so the first is the earliest.
+    std::stable_sort(first, last, [](const HalfEdge& x, const HalfEdge& y) { return x.other < y.other; });
+    for (auto it = first; it != last; ++it) {
+      if (it == first || it->other != (it - 1)->other) {
+        edges.keys.push_back(edge_key(static_cast<uint32_t>(v), it->other));
+        edges.uses.push_back({0, 0, it->triangle});
+      }
+      EdgeUse& e = edges.uses.back();
       ++e.count;
-      if (a < b) ++e.forward;
+      if (it->forward) ++e.forward;
     }
   }
   return edges;
@@ -212,7 +255,9 @@ std::vector<std::pair<uint32_t, uint32_t>> classify_edges(const Tessellation& me
     boundary_tol = options.boundary_tolerance * model_box(*model).diagonal();
   }
   std::vector<std::pair<uint32_t, uint32_t>> open;
-  for (const auto& [key, e] : edges) {
+  for (size_t k = 0; k < edges.size(); ++k) {
+    const uint64_t key = edges.keys[k];
+    const EdgeUse& e = edges.uses[k];
     const uint32_t a = static_cast<uint32_t>(key >> 32), b = static_cast<uint32_t>(key & 0xffffffffu);
     const Vec3 mid = 0.5 * (mesh.positions[a] + mesh.positions[b]);
     if (e.count > 2) {
@@ -296,8 +341,8 @@ void find_t_junctions(const Tessellation& mesh, const std::vector<std::pair<uint
             }
             if (inside) {
               junctions.insert(v);
-              const auto e = edges.find(edge_key(a, b));
-              f.add({"t_junction", p, patch_of(mesh, e->second.triangle), e->second.triangle, {v, -1}});
+              const EdgeUse* e = edges.find(edge_key(a, b));
+              f.add({"t_junction", p, patch_of(mesh, e->triangle), e->triangle, {v, -1}});
             }
           }
         }
@@ -324,13 +369,15 @@ void find_components(const Tessellation& mesh, const EdgeUses& edges, const Topo
       if (a != b) parent[std::max(a, b)] = std::min(a, b);
     }
   }
-  std::unordered_map<uint32_t, size_t> component_of_root;
+  constexpr size_t kNone = ~size_t(0);
+  std::vector<size_t> component_of_root(mesh.positions.size(), kNone);
   std::vector<MeshComponent> comps;
   std::vector<size_t> tri_component(mesh.triangles.size());
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
     const Triangle& t = mesh.triangles[i];
-    const auto [it, fresh] = component_of_root.emplace(find(t[0]), comps.size());
-    if (fresh) {
+    size_t& component = component_of_root[find(t[0])];
+    if (component == kNone) {
+      component = comps.size();
       MeshComponent c;
       c.first_triangle = static_cast<int64_t>(i);
       c.patch = patch_of(mesh, i);
@@ -338,15 +385,15 @@ void find_components(const Tessellation& mesh, const EdgeUses& edges, const Topo
       c.closed = true;
       comps.push_back(c);
     }
-    tri_component[i] = it->second;
-    MeshComponent& c = comps[it->second];
+    tri_component[i] = component;
+    MeshComponent& c = comps[component];
     ++c.triangles;
     for (uint32_t v : t) {
       c.box_min = glm::min(c.box_min, mesh.positions[v]);
       c.box_max = glm::max(c.box_max, mesh.positions[v]);
     }
   }
-  for (const auto& [key, e] : edges) {
+  for (const EdgeUse& e : edges.uses) {
     if (e.count != 2 || e.forward != 1) comps[tri_component[e.triangle]].closed = false;
   }
   std::vector<double> magnitude(comps.size(), 0.0);

@@ -48,15 +48,18 @@ struct MeshDistance::Impl {
   double scale = 0.0;  // largest absolute coordinate of the mesh
 };
 
-MeshDistance::MeshDistance(const Tessellation& mesh) : impl_(std::make_unique<Impl>()) {
+MeshDistance::MeshDistance(const Tessellation& mesh, const std::vector<uint32_t>* subset)
+    : impl_(std::make_unique<Impl>()) {
   auto P = [&](uint32_t i) {
     const Vec3& p = mesh.positions[i];
     return K::Point_3(p.x, p.y, p.z);
   };
-  impl_->triangles.reserve(mesh.triangles.size());
+  const size_t count = subset ? subset->size() : mesh.triangles.size();
+  impl_->triangles.reserve(count);
   std::vector<std::pair<std::tuple<double, double, double>, int64_t>> points;
-  for (const Triangle& t : mesh.triangles) {
-    const int64_t id = static_cast<int64_t>(&t - mesh.triangles.data());
+  for (size_t k = 0; k < count; ++k) {
+    const int64_t id = subset ? static_cast<int64_t>((*subset)[k]) : static_cast<int64_t>(k);
+    const Triangle& t = mesh.triangles[static_cast<size_t>(id)];
     const CTriangle tri(P(t[0]), P(t[1]), P(t[2]));
     if (!tri.is_degenerate()) {
       impl_->triangles.push_back(tri);

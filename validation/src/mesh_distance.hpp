@@ -7,13 +7,18 @@
 
 #include "sagitta/tessellation.hpp"
 
+#include <cstdint>
 #include <memory>
+#include <vector>
 
 namespace sagitta::detail {
 
 class MeshDistance {
  public:
-  explicit MeshDistance(const Tessellation& mesh);
+  explicit MeshDistance(const Tessellation& mesh) : MeshDistance(mesh, nullptr) {}
+  // Only the listed triangles (indices into the mesh's), when `subset` is given: then a query's
+  // answer is the whole mesh's only where its nearest triangle is listed (the caller guarantees it).
+  MeshDistance(const Tessellation& mesh, const std::vector<uint32_t>* subset);
   ~MeshDistance();
   MeshDistance(const MeshDistance&) = delete;
   MeshDistance& operator=(const MeshDistance&) = delete;
