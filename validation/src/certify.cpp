@@ -1207,9 +1207,11 @@ std::vector<double> cheap_hole_bounds(const std::vector<Hole>& holes, const std:
 // sets the refinement target. Only the largest estimates matter, and a triangle's residuals are at
 // most its cheap bound (each point x = sum b_i X_i is within the bound of S(sum b_i q_i), where its
 // projection starts): triangles are visited by decreasing bound until the next bound is below the
-// largest residual seen. `visited` marks the triangles estimated; the others keep 0.
-Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchData>& pd,
-                              const std::vector<double>& cheap, std::vector<char>& visited) {
+// largest residual seen. A visited triangle's bound is first tightened to the exact composed one
+// (in `cheap`, for pass 2 too); its points are projected only if that still exceeds the largest
+// residual so far. `visited` marks the triangles projected; the others keep the estimate 0.
+Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchData>& pd, std::vector<double>& cheap,
+                              std::vector<char>& visited) {
   const size_t count = mesh.triangles.size();
   Estimates est;
   est.value.assign(count, 0.0);
@@ -1224,25 +1226,31 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
   while (next < count && cheap[order[next]] > largest) {
     size_t end = next;
     while (end < count && end - next < 1024 && cheap[order[end]] > largest) ++end;
-    tbb::parallel_for(next, end, [&](size_t i) {
-      const size_t t = order[i];
-      if ((i & 1023u) == 0) budget::check("validation");
-      const auto T = triangle_corners(mesh, t);
-      const auto& uv = mesh.triangle_uv[t];
-      const PatchData& P = pd[mesh.triangle_patch[t]];
-      const BezierPatch& patch = *P.patch;
-      const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
-      for (const Vec3& b : bs) {
-        const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
-        const Vec2 q = P.project(x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
-        const double e = norm(x - eval(patch, q));
-        if (e >= est.value[t]) {
-          est.value[t] = e;
-          est.point[t] = x;
-          est.uv[t] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
+    tbb::parallel_for(tbb::blocked_range<size_t>(next, end, 16), [&](const tbb::blocked_range<size_t>& range) {
+      Scratch s;
+      budget::check("validation");
+      for (size_t i = range.begin(); i != range.end(); ++i) {
+        const size_t t = order[i];
+        const auto T = triangle_corners(mesh, t);
+        const auto& uv = mesh.triangle_uv[t];
+        const PatchData& P = pd[mesh.triangle_patch[t]];
+        const Vec2 q[3] = {uv[0], uv[1], uv[2]};
+        const Vec3 X[3] = {T[0], T[1], T[2]};
+        cheap[t] = std::min(cheap[t], composed_bound(P, q, X, s));
+        if (!(cheap[t] > largest)) continue;
+        const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
+        for (const Vec3& b : bs) {
+          const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
+          const Vec2 qp = P.project(x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
+          const double e = norm(x - eval(*P.patch, qp));
+          if (e >= est.value[t]) {
+            est.value[t] = e;
+            est.point[t] = x;
+            est.uv[t] = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
+          }
         }
+        visited[t] = 1;
       }
-      visited[t] = 1;
     });
     for (size_t i = next; i < end; ++i) largest = std::max(largest, est.value[order[i]]);
     next = end;
@@ -1583,8 +1591,8 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
   std::vector<PatchData> pd;
   pd.reserve(model.patches.size());
   for (const BezierPatch& p : model.patches) pd.push_back(make_patch_data(p));
-  const CheapBounds cheap_bounds = cheap_triangle_bounds(mesh, pd);
-  const std::vector<double>& cheap = cheap_bounds.triangle;
+  CheapBounds cheap_bounds = cheap_triangle_bounds(mesh, pd);
+  std::vector<double>& cheap = cheap_bounds.triangle;
   std::vector<char> visited;
   Estimates est = own_patch_estimates(mesh, pd, cheap, visited);
   std::vector<Box> patch_boxes(model.patches.size());

@@ -4,6 +4,8 @@
 #include "sagitta/app/json.hpp"
 #include "sagitta/budget.hpp"
 
+#include <tbb/parallel_invoke.h>
+
 namespace sagitta::app {
 
 Validation validate_mesh(const Model& model, const Topology& topology, const Tessellation& mesh,
@@ -15,20 +17,28 @@ Validation validate_mesh(const Model& model, const Topology& topology, const Tes
   const Stopwatch clock;
   CertifyOptions certify;
   certify.max_depth = options.max_depth;
-  if (mesh.has_surface()) {
-    v.distance = certify_distance(model, mesh, certify);
-    v.method = "bernstein";
-  } else {
-    ExternalOptions external;
-    external.reference_segments = options.reference_segments;
-    external.certify = certify;
-    v.distance = certify_external(model, mesh, external);
-    v.method = "reference";
-  }
-  v.distance_seconds = clock.seconds();
-  const Stopwatch topo_clock;
-  v.topology = check_mesh_topology(mesh, &model, &topology);
-  v.topology_seconds = topo_clock.seconds();
+  // The certificate (parallel inside) and the topology checks (one thread) run side by side.
+  tbb::parallel_invoke(
+      [&] {
+        const Stopwatch distance_clock;
+        if (mesh.has_surface()) {
+          v.distance = certify_distance(model, mesh, certify);
+          v.method = "bernstein";
+        } else {
+          ExternalOptions external;
+          external.reference_segments = options.reference_segments;
+          external.certify = certify;
+          v.distance = certify_external(model, mesh, external);
+          v.method = "reference";
+        }
+        v.distance_seconds = distance_clock.seconds();
+      },
+      [&] {
+        const Stopwatch topo_clock;
+        v.topology = check_mesh_topology(mesh, &model, &topology);
+        v.topology_seconds = topo_clock.seconds();
+      });
+  v.seconds = clock.seconds();
   return v;
 }
 
@@ -57,7 +67,7 @@ nlohmann::json validation_json(const Model& model, const Topology& topology, con
   doc["model_topology"] = topology_json(model, topology);
   doc["distance_seconds"] = v.distance_seconds;
   doc["topology_seconds"] = v.topology_seconds;
-  doc["seconds"] = v.distance_seconds + v.topology_seconds;
+  doc["seconds"] = v.seconds;  // wall clock: the two run side by side
   return doc;
 }
 

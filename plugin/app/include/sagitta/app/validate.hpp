@@ -24,6 +24,7 @@ struct Validation {
   TopologyReport topology;
   double distance_seconds = 0.0;
   double topology_seconds = 0.0;
+  double seconds = 0.0;  // wall clock of both (they run side by side)
 };
 
 // Bytes a validation needs beyond the mesh, for the memory guard (sagitta/budget.hpp): the
