@@ -83,6 +83,49 @@ TEST(InterpolationBound, NeverBelowTheSampledErrorOnRandomPatchesAndTriangles) {
   EXPECT_EQ(checked, 7 * 4 * 40);
 }
 
+// Rational patches: weights from 1/4 to 4 (a quarter circle has 1 and 1/sqrt(2)); the bound goes
+// through the quotient rule on the homogeneous net, so it is looser, but still never below.
+TEST(InterpolationBound, RationalPatchesToo) {
+  std::mt19937 rng(99);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int checked = 0;
+  for (const auto& d :
+       {std::array<int, 2>{1, 2}, std::array<int, 2>{2, 2}, std::array<int, 2>{3, 4}, std::array<int, 2>{7, 2}}) {
+    for (const int cells : {1, 4, 16}) {
+      BezierPatch patch = random_patch(rng, d[0], d[1], 1.0, Vec3(0.0));
+      for (size_t k = 0; k < patch.points.size(); ++k) patch.weights.push_back(std::pow(4.0, 2.0 * unit(rng) - 1.0));
+      const detail::CurvatureGrid grid(patch, cells);
+      ASSERT_FALSE(grid.empty());
+      for (int trial = 0; trial < 30; ++trial) {
+        const double size = std::pow(2.0, -7.0 * unit(rng));
+        const Vec2 base(unit(rng) * (1.0 - size), unit(rng) * (1.0 - size));
+        Vec2 q[3];
+        for (auto& c : q) c = base + size * Vec2(unit(rng), unit(rng));
+        const double bound = grid.interpolation_bound(q);
+        ASSERT_TRUE(std::isfinite(bound));
+        EXPECT_GE(static_cast<LD>(bound), sampled_interpolation_error(patch, q, 12))
+            << "degrees " << d[0] << "," << d[1] << " cells " << cells;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_EQ(checked, 4 * 3 * 30);
+  // A quarter of a unit circle swept along z (the rational quadratic of a cylinder): on a fine grid
+  // the bound stays within a small factor of the true chord error.
+  BezierPatch cylinder;
+  cylinder.degree_u = 2;
+  cylinder.degree_v = 1;
+  const double r = std::sqrt(0.5);
+  cylinder.points = {Vec3(1, 0, 0), Vec3(1, 0, 1), Vec3(1, 1, 0), Vec3(1, 1, 1), Vec3(0, 1, 0), Vec3(0, 1, 1)};
+  cylinder.weights = {1, 1, r, r, 1, 1};
+  const detail::CurvatureGrid grid(cylinder, 16);
+  const Vec2 q[3] = {Vec2(0.5, 0.25), Vec2(0.5 + 1.0 / 64, 0.25), Vec2(0.5 + 1.0 / 64, 0.25 + 1.0 / 64)};
+  const double bound = grid.interpolation_bound(q);
+  const LD sampled = sampled_interpolation_error(cylinder, q, 16);
+  EXPECT_GE(static_cast<LD>(bound), sampled);
+  EXPECT_LT(static_cast<LD>(bound), 12 * sampled);
+}
+
 // Triangles of a uniform grid (corners on multiples of 1/64, so on the boxes' sides): every box
 // they touch counts, and the bound stays within a small factor of the true error.
 TEST(InterpolationBound, TightOnTheTrianglesOfAFineUniformGrid) {
@@ -130,12 +173,15 @@ TEST(InterpolationBound, PlanesAndFarOffsetsAndWhatItRefuses) {
   EXPECT_GE(static_cast<LD>(b_far), sampled_interpolation_error(near, t, 12));
   EXPECT_LT(std::abs(b_far - b_near), 1e-6 * b_near + 1e-6);
 
-  // Rational patches get no grid; corners outside the unit square get no bound.
+  // Weights that are not positive finite numbers give no grid (and no bound); corners outside the
+  // unit square get no bound.
   BezierPatch rational = near;
   rational.weights.assign(16, 1.0);
-  rational.weights[5] = 2.0;
+  rational.weights[5] = 0.0;
   EXPECT_TRUE(detail::CurvatureGrid(rational, 4).empty());
   EXPECT_TRUE(std::isinf(detail::CurvatureGrid(rational, 4).interpolation_bound(t)));
+  rational.weights[5] = std::nan("");
+  EXPECT_TRUE(detail::CurvatureGrid(rational, 4).empty());
   const Vec2 outside[3] = {Vec2(-0.01, 0.0), Vec2(0.5, 0.0), Vec2(0.5, 0.5)};
   EXPECT_TRUE(std::isinf(detail::CurvatureGrid(near, 4).interpolation_bound(outside)));
   const Vec2 nan[3] = {Vec2(std::nan(""), 0.0), Vec2(0.5, 0.0), Vec2(0.5, 0.5)};

@@ -1129,8 +1129,8 @@ struct CheapBounds {
 
 // Pass 0: per triangle, a cheap proven bound on both directions over it (the mesh triangle against
 // the surface over its own (u, v)): the curvature grid's interpolation bound plus the corners'
-// distances to their exact surface points; where no grid applies (rational patches, (u, v) outside
-// [0, 1]^2) the exact composed bound. Most triangles are settled by it (docs/VALIDATION.md).
+// distances to their exact surface points; where no grid applies ((u, v) outside [0, 1]^2, a weight
+// bound that is not positive) the exact composed bound. Most triangles are settled by it (docs/VALIDATION.md).
 CheapBounds cheap_triangle_bounds(const Tessellation& mesh, const std::vector<PatchData>& pd) {
   const size_t count = mesh.triangles.size();
   std::vector<size_t> per_patch(pd.size(), 0);

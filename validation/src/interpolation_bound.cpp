@@ -1,6 +1,7 @@
 #include "interpolation_bound.hpp"
 
 #include <glm/geometric.hpp>
+#include <glm/vec4.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -13,13 +14,15 @@ namespace {
 constexpr double kUnit = std::numeric_limits<double>::epsilon() / 2;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-Vec3 lerp(const Vec3& a, const Vec3& b, double t) { return (1.0 - t) * a + t * b; }
+using Vec4 = glm::dvec4;  // homogeneous control point (w (P - o), w)
+
+Vec4 lerp(const Vec4& a, const Vec4& b, double t) { return (1.0 - t) * a + t * b; }
 
 // The control points of the degree-d curve p restricted to [a, b'] with b' >= b (0 <= a < b <= 1,
 // a and b multiples of a power of two), in place. Each result is at most 2d de Casteljau levels
 // from the input, so it is within the rounding of 2d convex combinations of the exact restriction
 // to [a, b'].
-void restrict_curve(Vec3* p, int d, double a, double b) {
+void restrict_curve(Vec4* p, int d, double a, double b) {
   if (a > 0.0) {  // the right part at a: p[k] = P^(d-k)_k
     for (int r = 1; r <= d; ++r) {
       for (int k = 0; k <= d - r; ++k) p[k] = lerp(p[k], p[k + 1], a);
@@ -35,34 +38,43 @@ void restrict_curve(Vec3* p, int d, double a, double b) {
   }
 }
 
+double length3(const Vec4& v) { return glm::length(Vec3(v)); }
+
 }  // namespace
 
 CurvatureGrid::CurvatureGrid(const BezierPatch& patch, int cells) {
-  for (double w : patch.weights) {
-    if (w != 1.0) return;
-  }
   if (cells < 1 || cells > 64 || (cells & (cells - 1)) != 0) return;
   const int n = patch.degree_u, m = patch.degree_v;
   if (n < 0 || m < 0 || n > kMaxDegree || m > kMaxDegree) return;
+  bool rational = false;
+  for (double w : patch.weights) {
+    if (!(w > 0.0) || !std::isfinite(w)) return;
+    rational = rational || w != 1.0;
+  }
   const Vec3 origin = control_box(patch).center();
   const size_t count = static_cast<size_t>((n + 1) * (m + 1));
-  std::vector<Vec3> rel(count);
-  double hmag = 0.0;
+  std::vector<Vec4> rel(count);
+  double hmag = 0.0, rmax = 0.0, wmax = 0.0;
   for (size_t k = 0; k < count; ++k) {
-    rel[k] = patch.points[k] - origin;
-    hmag = std::max(hmag, glm::length(rel[k]));
+    const double w = patch.weights.empty() ? 1.0 : patch.weights[k];
+    const Vec3 d = patch.points[k] - origin;
+    rel[k] = Vec4(w * d, w);
+    hmag = std::max(hmag, w * glm::length(d));
+    rmax = std::max(rmax, glm::length(d));
+    wmax = std::max(wmax, w);
   }
-  if (!std::isfinite(hmag)) return;
+  if (!std::isfinite(hmag) || !std::isfinite(rmax)) return;
   // Every sub-net coefficient is within 2 (n + m) lerps of the net, each erring by at most 3u of
-  // the magnitudes (at most hmag): e_sub is a margin of more than 2 over that; a second difference
-  // adds 4 e_sub of input error and its own rounding (below another 2 e_sub).
-  const double e_sub = 16.0 * (n + m + 2) * kUnit * hmag;
+  // the magnitudes (at most hmag, or wmax for the weight): e_sub is a margin of more than 2 over
+  // that; a difference of up to four coefficients adds 4 e_sub of input error and its own rounding
+  // (below another 2 e_sub).
+  const double e_sub = 16.0 * (n + m + 2) * kUnit * std::max(hmag, wmax);
+  const double slack = 6.0 * e_sub;
   const double width = 1.0 / cells;  // exact
-  const double cu2 = n * (n - 1) / (width * width), cuv = n * m / (width * width), cv2 = m * (m - 1) / (width * width);
-  std::vector<Vec3> strip(count), sub(count);
-  Vec3 work[kMaxDegree + 1];
+  std::vector<Vec4> strip(count), sub(count);
+  Vec4 work[kMaxDegree + 1];
   second_.assign(static_cast<size_t>(cells * cells), {0.0, 0.0, 0.0});
-  auto at = [m](std::vector<Vec3>& net, int i, int j) -> Vec3& { return net[static_cast<size_t>(i * (m + 1) + j)]; };
+  auto at = [m](std::vector<Vec4>& net, int i, int j) -> Vec4& { return net[static_cast<size_t>(i * (m + 1) + j)]; };
   for (int iu = 0; iu < cells; ++iu) {
     for (int j = 0; j <= m; ++j) {
       for (int i = 0; i <= n; ++i) work[i] = at(rel, i, j);
@@ -75,21 +87,62 @@ CurvatureGrid::CurvatureGrid(const BezierPatch& patch, int cells) {
         restrict_curve(work, m, iv * width, (iv + 1) * width);
         for (int j = 0; j <= m; ++j) at(sub, i, j) = work[j];
       }
-      double duu = 0.0, duv = 0.0, dvv = 0.0;
+      // Largest differences of the sub-net (numerator part and weight) in each direction.
+      double nu = 0, nv = 0, nuu = 0, nuv = 0, nvv = 0, wu = 0, wv = 0, wuu = 0, wuv = 0, wvv = 0;
+      double wlow = std::numeric_limits<double>::infinity();
       for (int i = 0; i <= n; ++i) {
         for (int j = 0; j <= m; ++j) {
-          if (i + 2 <= n) duu = std::max(duu, glm::length(at(sub, i + 2, j) - 2.0 * at(sub, i + 1, j) + at(sub, i, j)));
-          if (j + 2 <= m) dvv = std::max(dvv, glm::length(at(sub, i, j + 2) - 2.0 * at(sub, i, j + 1) + at(sub, i, j)));
+          const Vec4 c = at(sub, i, j);
+          wlow = std::min(wlow, c.w);
+          if (i + 1 <= n) {
+            const Vec4 d = at(sub, i + 1, j) - c;
+            nu = std::max(nu, length3(d));
+            wu = std::max(wu, std::abs(d.w));
+          }
+          if (j + 1 <= m) {
+            const Vec4 d = at(sub, i, j + 1) - c;
+            nv = std::max(nv, length3(d));
+            wv = std::max(wv, std::abs(d.w));
+          }
+          if (i + 2 <= n) {
+            const Vec4 d = at(sub, i + 2, j) - 2.0 * at(sub, i + 1, j) + c;
+            nuu = std::max(nuu, length3(d));
+            wuu = std::max(wuu, std::abs(d.w));
+          }
+          if (j + 2 <= m) {
+            const Vec4 d = at(sub, i, j + 2) - 2.0 * at(sub, i, j + 1) + c;
+            nvv = std::max(nvv, length3(d));
+            wvv = std::max(wvv, std::abs(d.w));
+          }
           if (i + 1 <= n && j + 1 <= m) {
-            duv = std::max(duv,
-                           glm::length(at(sub, i + 1, j + 1) - at(sub, i + 1, j) - at(sub, i, j + 1) + at(sub, i, j)));
+            const Vec4 d = at(sub, i + 1, j + 1) - at(sub, i + 1, j) - at(sub, i, j + 1) + c;
+            nuv = std::max(nuv, length3(d));
+            wuv = std::max(wuv, std::abs(d.w));
           }
         }
       }
-      // S_uu = n (n - 1) sum (second u-differences) B / width^2 over the box (the sub-net covers at
-      // least the box, so dividing by the box width over-estimates); likewise for the others.
-      second_[static_cast<size_t>(iu * cells + iv)] = {cu2 * (duu + 6.0 * e_sub), cuv * (duv + 6.0 * e_sub),
-                                                       cv2 * (dvv + 6.0 * e_sub)};
+      // Derivatives over the box of the homogeneous numerator N and weight W (the sub-net covers at
+      // least the box, so dividing by the box width over-estimates): N_u = n sum (u-differences) B
+      // / width, N_uu = n (n - 1) sum (second u-differences) B / width^2, and so on.
+      const double h = 1.0 / width;
+      const double Nuu = n * (n - 1) * (nuu + slack) * h * h, Nuv = n * m * (nuv + slack) * h * h,
+                   Nvv = m * (m - 1) * (nvv + slack) * h * h;
+      std::array<double, 3>& box = second_[static_cast<size_t>(iu * cells + iv)];
+      if (!rational) {  // W = 1: S - o = N
+        box = {Nuu, Nuv, Nvv};
+        continue;
+      }
+      // W S = N (S relative to o, |S| <= rmax by the convex hull): differentiating,
+      // W S_u = N_u - W_u S, W S_uu = N_uu - 2 W_u S_u - W_uu S, W S_uv = N_uv - W_u S_v - W_v S_u - W_uv S.
+      const double W = wlow - e_sub;  // the weight is at least the smallest sub-net weight
+      if (!(W > 0.0)) return;         // no grid: the caller falls back to the exact bound
+      const double Nu = n * (nu + slack) * h, Nv = m * (nv + slack) * h;
+      const double Wu = n * (wu + slack) * h, Wv = m * (wv + slack) * h;
+      const double Wuu = n * (n - 1) * (wuu + slack) * h * h, Wuv = n * m * (wuv + slack) * h * h,
+                   Wvv = m * (m - 1) * (wvv + slack) * h * h;
+      const double Su = (Nu + Wu * rmax) / W, Sv = (Nv + Wv * rmax) / W;
+      box = {(Nuu + 2.0 * Wu * Su + Wuu * rmax) / W, (Nuv + Wu * Sv + Wv * Su + Wuv * rmax) / W,
+             (Nvv + 2.0 * Wv * Sv + Wvv * rmax) / W};
     }
   }
   cells_ = cells;

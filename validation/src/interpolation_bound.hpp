@@ -1,4 +1,4 @@
-// Internal: a cheap proven bound on how far a polynomial Bézier patch is from the affine
+// Internal: a cheap proven bound on how far a Bézier patch (rational or not) is from the affine
 // interpolation of its own points at the corners of a (u, v) triangle, from bounds on its second
 // derivatives over a grid of sub-boxes of the domain. certify.cpp uses it to settle the many
 // triangles whose error is far below the largest one without the exact (blossom) bound.
@@ -14,8 +14,8 @@ namespace sagitta::detail {
 class CurvatureGrid {
  public:
   CurvatureGrid() = default;
-  // `cells` boxes per side (a power of two, 1 to 64). A rational patch (some weight other than 1)
-  // gets an empty grid.
+  // `cells` boxes per side (a power of two, 1 to 64). Empty when a weight is not a positive finite
+  // number, or the weights' lower bound over a box is not positive after rounding.
   CurvatureGrid(const BezierPatch& patch, int cells);
   bool empty() const { return cells_ == 0; }
 
