@@ -56,9 +56,28 @@ BezierPatch random_patch(std::mt19937& rng, int n, int m, double scale, Vec3 off
   return p;
 }
 
+// `trials` random triangles of sizes 2^-halvings to 1 anywhere in [0, 1]^2: each bound finite and
+// not below the sampled error. Returns the number checked.
+int check_random_triangles(const BezierPatch& patch, const detail::CurvatureGrid& grid, std::mt19937& rng, int trials,
+                           double halvings) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int checked = 0;
+  for (int trial = 0; trial < trials; ++trial) {
+    const double size = std::pow(2.0, -halvings * unit(rng));
+    const Vec2 base(unit(rng) * (1.0 - size), unit(rng) * (1.0 - size));
+    Vec2 q[3];
+    for (auto& c : q) c = base + size * Vec2(unit(rng), unit(rng));
+    const double bound = grid.interpolation_bound(q);
+    EXPECT_TRUE(std::isfinite(bound));
+    EXPECT_GE(static_cast<LD>(bound), sampled_interpolation_error(patch, q, 12))
+        << "degrees " << patch.degree_u << "," << patch.degree_v << (patch.rational() ? " rational" : "");
+    ++checked;
+  }
+  return checked;
+}
+
 TEST(InterpolationBound, NeverBelowTheSampledErrorOnRandomPatchesAndTriangles) {
   std::mt19937 rng(20261202);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
   const int degrees[][2] = {{1, 1}, {2, 1}, {3, 3}, {2, 5}, {6, 4}, {9, 9}, {25, 3}};
   int checked = 0;
   for (const auto& d : degrees) {
@@ -66,18 +85,8 @@ TEST(InterpolationBound, NeverBelowTheSampledErrorOnRandomPatchesAndTriangles) {
       const BezierPatch patch = random_patch(rng, d[0], d[1], 1.0, Vec3(0.0));
       const detail::CurvatureGrid grid(patch, cells);
       ASSERT_FALSE(grid.empty());
-      for (int trial = 0; trial < 40; ++trial) {
-        // Sizes from the whole domain down to 1/256 of it, anywhere in [0, 1]^2.
-        const double size = std::pow(2.0, -8.0 * unit(rng));
-        const Vec2 base(unit(rng) * (1.0 - size), unit(rng) * (1.0 - size));
-        Vec2 q[3];
-        for (auto& c : q) c = base + size * Vec2(unit(rng), unit(rng));
-        const double bound = grid.interpolation_bound(q);
-        ASSERT_TRUE(std::isfinite(bound));
-        const LD sampled = sampled_interpolation_error(patch, q, 12);
-        EXPECT_GE(static_cast<LD>(bound), sampled) << "degrees " << d[0] << "," << d[1] << " cells " << cells;
-        ++checked;
-      }
+      // Sizes from the whole domain down to 1/256 of it.
+      checked += check_random_triangles(patch, grid, rng, 40, 8.0);
     }
   }
   EXPECT_EQ(checked, 7 * 4 * 40);
@@ -96,17 +105,7 @@ TEST(InterpolationBound, RationalPatchesToo) {
       for (size_t k = 0; k < patch.points.size(); ++k) patch.weights.push_back(std::pow(4.0, 2.0 * unit(rng) - 1.0));
       const detail::CurvatureGrid grid(patch, cells);
       ASSERT_FALSE(grid.empty());
-      for (int trial = 0; trial < 30; ++trial) {
-        const double size = std::pow(2.0, -7.0 * unit(rng));
-        const Vec2 base(unit(rng) * (1.0 - size), unit(rng) * (1.0 - size));
-        Vec2 q[3];
-        for (auto& c : q) c = base + size * Vec2(unit(rng), unit(rng));
-        const double bound = grid.interpolation_bound(q);
-        ASSERT_TRUE(std::isfinite(bound));
-        EXPECT_GE(static_cast<LD>(bound), sampled_interpolation_error(patch, q, 12))
-            << "degrees " << d[0] << "," << d[1] << " cells " << cells;
-        ++checked;
-      }
+      checked += check_random_triangles(patch, grid, rng, 30, 7.0);
     }
   }
   EXPECT_EQ(checked, 4 * 3 * 30);
