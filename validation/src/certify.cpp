@@ -1148,6 +1148,7 @@ CheapBounds cheap_triangle_bounds(const Tessellation& mesh, const std::vector<Pa
   constexpr uint64_t kNone = ~uint64_t(0);
   std::vector<uint64_t> owner(mesh.positions.size(), kNone);
   for (size_t t = 0; t < count; ++t) {
+    if ((t & 0xffffu) == 0) budget::check("validation");
     if (cb.grids[mesh.triangle_patch[t]].empty()) continue;
     for (int c = 0; c < 3; ++c) {
       uint64_t& o = owner[mesh.triangles[t][c]];
@@ -1220,12 +1221,22 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
   visited.assign(count, 0);
   std::vector<size_t> order(count);
   std::iota(order.begin(), order.end(), size_t(0));
-  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return cheap[a] > cheap[b]; });
+  const auto larger = [&](size_t a, size_t b) { return cheap[a] > cheap[b]; };
+  // Usually only the first few thousand are visited: the largest 65,536 are sorted first (linear
+  // selection, then a small sort), the rest only if the walk gets there.
+  size_t sorted = std::min<size_t>(count, 65536);
+  std::nth_element(order.begin(), order.begin() + static_cast<long>(sorted) - 1, order.end(), larger);
+  std::sort(order.begin(), order.begin() + static_cast<long>(sorted), larger);
   double largest = 0.0;
   size_t next = 0;
   while (next < count && cheap[order[next]] > largest) {
+    if (next >= sorted) {
+      budget::check("validation");
+      std::sort(order.begin() + static_cast<long>(sorted), order.end(), larger);
+      sorted = count;
+    }
     size_t end = next;
-    while (end < count && end - next < 1024 && cheap[order[end]] > largest) ++end;
+    while (end < sorted && end - next < 1024 && cheap[order[end]] > largest) ++end;
     tbb::parallel_for(tbb::blocked_range<size_t>(next, end, 16), [&](const tbb::blocked_range<size_t>& range) {
       Scratch s;
       budget::check("validation");
@@ -1391,6 +1402,7 @@ void vertex_rings(const Tessellation& mesh, std::vector<uint32_t>& start, std::v
   triangles.resize(start.back());
   std::vector<uint32_t> fill(start.begin(), start.end() - 1);
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    if ((i & 0xffffu) == 0) budget::check("validation");
     for (uint32_t v : mesh.triangles[i]) triangles[fill[v]++] = static_cast<uint32_t>(i);
   }
 }
@@ -1505,6 +1517,7 @@ std::vector<uint32_t> triangles_near_queries(const Tessellation& mesh, const std
     return true;
   };
   for (size_t t = 0; t < count; ++t) {
+    if ((t & 0xffffu) == 0) budget::check("validation");
     if (visited[t] || !(cheap[t] <= settled)) {
       if (!add_query(triangle_corners(mesh, t), cheap[t])) return {};
     }
@@ -1552,6 +1565,7 @@ std::vector<uint32_t> triangles_near_queries(const Tessellation& mesh, const std
   }
   std::vector<uint32_t> subset;
   for (size_t t = 0; t < count; ++t) {
+    if ((t & 0xffffu) == 0) budget::check("validation");
     const auto T = triangle_corners(mesh, t);
     const Box b{glm::min(glm::min(T[0], T[1]), T[2]), glm::max(glm::max(T[0], T[1]), T[2])};
     int lo[3], hi[3];

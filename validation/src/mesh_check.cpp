@@ -2,6 +2,7 @@
 // exact collinearity.
 #include "sagitta/mesh_check.hpp"
 
+#include "sagitta/budget.hpp"
 #include "sagitta/evaluate.hpp"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -139,6 +140,7 @@ void find_degenerate_and_duplicated(const Tessellation& mesh, Findings& f) {
   TopologyReport& r = f.r;
   std::vector<std::pair<Triangle, uint32_t>> sorted(mesh.triangles.size());
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    if ((i & 0xffffu) == 0) budget::check("mesh check");  // a cancelled run stops within milliseconds
     const Triangle& t = mesh.triangles[i];
     const bool same_index = t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
     if (same_index || CGAL::collinear(cgal_point(mesh.positions[t[0]]), cgal_point(mesh.positions[t[1]]),
@@ -192,6 +194,7 @@ EdgeUses count_edge_uses(const Tessellation& mesh) {
   std::vector<HalfEdge> half(start[vertices]);
   std::vector<uint32_t> fill(start.begin(), start.end() - 1);
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    if ((i & 0xffffu) == 0) budget::check("mesh check");
     const Triangle& t = mesh.triangles[i];
     for (int k = 0; k < 3; ++k) {
       const uint32_t a = t[k], b = t[(k + 1) % 3];
@@ -203,6 +206,7 @@ EdgeUses count_edge_uses(const Tessellation& mesh) {
   edges.keys.reserve(half.size() / 2 + 1);
   edges.uses.reserve(half.size() / 2 + 1);
   for (size_t v = 0; v < vertices; ++v) {
+    if ((v & 0xffffu) == 0) budget::check("mesh check");
     const auto first = half.begin() + start[v], last = half.begin() + start[v + 1];
     // Stable: within one edge the uses stay in triangle order, so the first is the earliest.
     std::stable_sort(first, last, [](const HalfEdge& x, const HalfEdge& y) { return x.other < y.other; });
@@ -374,6 +378,7 @@ void find_components(const Tessellation& mesh, const EdgeUses& edges, const Topo
   std::vector<MeshComponent> comps;
   std::vector<size_t> tri_component(mesh.triangles.size());
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    if ((i & 0xffffu) == 0) budget::check("mesh check");
     const Triangle& t = mesh.triangles[i];
     size_t& component = component_of_root[find(t[0])];
     if (component == kNone) {
