@@ -92,6 +92,8 @@ struct PatchData {
   BezierPatch shifted;     // the patch moved so its first control point is the origin (project_shifted)
   // Projection of x onto the patch seeded at q: project() without copying the patch.
   Vec2 project(const Vec3& x, Vec2 q) const;
+  // A bound on |eval(*patch, q) - S(q)|, the rounding of the de Casteljau evaluation below.
+  double eval_rounding() const { return 4.0 * (n + m + 2) * kUnit * (hmag / wmin + norm(origin)) * wmax / wmin; }
 };
 
 PatchData make_patch_data(const BezierPatch& patch) {
@@ -1075,9 +1077,7 @@ void certify_lowers(const Model& model, const Tessellation& mesh, const std::vec
       low[i] = 0.0;  // not a point of the restricted surface: no witness
       return;
     }
-    const PatchData P = make_patch_data(patch);
-    const double eval_err = 4.0 * (P.n + P.m + 2) * kUnit * (P.hmag / P.wmin + norm(P.origin)) * P.wmax / P.wmin;
-    low[i] = std::max(0.0, dist.distance(p) - dist.rounding_bound(p) - eval_err);
+    low[i] = std::max(0.0, dist.distance(p) - dist.rounding_bound(p) - make_patch_data(patch).eval_rounding());
   });
   for (size_t i = 0; i < k; ++i) {
     if (low[i] > report.surface_to_mesh.lower) {
@@ -1107,8 +1107,7 @@ struct Estimates {
 // |S(q) - X| for a mesh point X meant to be S(q), plus the evaluation's rounding (as for the lower
 // bounds' witnesses): a bound on the exact distance.
 double corner_offset(const PatchData& P, Vec2 q, const Vec3& X) {
-  const double eval_err = 4.0 * (P.n + P.m + 2) * kUnit * (P.hmag / P.wmin + norm(P.origin)) * P.wmax / P.wmin;
-  return norm(eval(*P.patch, q) - X) + eval_err;
+  return norm(eval(*P.patch, q) - X) + P.eval_rounding();
 }
 
 // The cheap bounds of pass 0: per patch a curvature grid, per triangle the bound.
