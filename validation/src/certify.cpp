@@ -1098,6 +1098,9 @@ std::array<Vec3, 3> triangle_corners(const Tessellation& mesh, size_t t) {
 }
 
 // Per triangle: the largest projection residual seen, where (in space and in (u, v)) it was seen.
+// Where the estimates sample a triangle (barycentric): its centroid and edge midpoints.
+const Vec3 kEstimatePoints[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
+
 struct Estimates {
   std::vector<double> value;
   std::vector<Vec3> point;
@@ -1248,8 +1251,7 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
         const Vec3 X[3] = {T[0], T[1], T[2]};
         cheap[t] = std::min(cheap[t], composed_bound(P, q, X, s));
         if (!(cheap[t] > largest)) continue;
-        const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
-        for (const Vec3& b : bs) {
+        for (const Vec3& b : kEstimatePoints) {
           const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
           const Vec2 qp = P.project(x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
           const double e = norm(x - eval(*P.patch, qp));
@@ -1324,9 +1326,8 @@ void match_estimates_to_model(const Model& model, const Tessellation& mesh, cons
     }
     const auto T = triangle_corners(mesh, t);
     const auto& uv = mesh.triangle_uv[t];
-    const Vec3 bs[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
     double worst = 0.0;
-    for (const Vec3& b : bs) {
+    for (const Vec3& b : kEstimatePoints) {
       const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
       const BezierPatch& own = model.patches[mesh.triangle_patch[t]];
       const Vec2 q0 = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
