@@ -9,12 +9,14 @@
 #include <tbb/parallel_for.h>
 
 #include <glm/geometric.hpp>
+#include <glm/vec4.hpp>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <map>
+#include <queue>
 #include <string>
 #include <utility>
 #include <vector>
@@ -423,6 +425,261 @@ void raise_lower_on_curves(const occt::PartFace& f, const Tessellation& mesh, Di
   }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Mesh -> face lower bounds in the slivers that lie outside the domain (docs/VALIDATION.md,
+// "Trimmed faces: lower bounds in the slivers"). Where a trimming curve bulges into the triangle on
+// its chord (a hole's circle), the mesh covers a sliver outside D and the chord's midpoint p, a
+// mesh point, is off the face by about the sliver's width. The untrimmed surface passes through p,
+// so the validator's own lower bound is 0 there; this one proves how far the face really is:
+//  1. a disk N of (U, V) (metric chord_metric) around p's (U, V) meets no trimming curve: its
+//     radius is the clearance from every chord's trace band (BoundaryChord::trace);
+//  2. one point c of N lies outside D. c lies inside the triangle on the chord, so inside the
+//     chords' polygon P (the triangles tile P: tiling_reason). The boundary of D is that of P plus
+//     the closed loops "curve - chord", and a loop winds around c only when c is within its chord's
+//     deviation (the loop lies in that convex band), so D's indicator at c is 1 + the parities of
+//     those loops (each loop traced by its polyline, which is homotopic to it inside the trace bands
+//     that miss N). N is connected and crosses no curve: all of N lies outside D;
+//  3. the face is its patches' surface over D, so d(p, F) >= min over the patches' boxes off N of
+//     the distance from p to the box's control-net hull (branch and bound, smallest box bound first:
+//     the popped box's bound is the answer).
+namespace sliver {
+
+using Net = std::vector<glm::dvec4>;  // homogeneous control points (w x, w y, w z, w), row-major in u
+
+Net homogeneous_net(const BezierPatch& patch) {
+  Net net;
+  for (int i = 0; i < patch.rows(); ++i) {
+    for (int j = 0; j < patch.cols(); ++j) {
+      const double w = patch.weight(i, j);
+      net.push_back(glm::dvec4(w * patch.at(i, j), w));
+    }
+  }
+  return net;
+}
+
+// The halves of a net along u (axis 0) or v (axis 1), by de Casteljau at 1/2.
+std::pair<Net, Net> halve(const Net& net, int rows, int cols, int axis) {
+  Net low(net.size()), high(net.size());
+  const int n = axis == 0 ? rows : cols, lines = axis == 0 ? cols : rows;
+  std::vector<glm::dvec4> work(static_cast<size_t>(n));
+  for (int l = 0; l < lines; ++l) {
+    const auto index = [&](int k) { return static_cast<size_t>(axis == 0 ? k * cols + l : l * cols + k); };
+    for (int k = 0; k < n; ++k) work[static_cast<size_t>(k)] = net[index(k)];
+    for (int level = 0; level < n; ++level) {
+      low[index(level)] = work[0];
+      high[index(n - 1 - level)] = work[static_cast<size_t>(n - 1 - level)];
+      for (int k = 0; k + 1 < n - level; ++k)
+        work[static_cast<size_t>(k)] = 0.5 * (work[static_cast<size_t>(k)] + work[static_cast<size_t>(k + 1)]);
+    }
+  }
+  return {std::move(low), std::move(high)};
+}
+
+// Distance from p to the box of the net's points (all weights positive: the surface lies in
+// their convex hull); -1 when a weight is not positive.
+double hull_distance(const Net& net, const Vec3& p) {
+  Vec3 lo(kInf), hi(-kInf);
+  for (const glm::dvec4& h : net) {
+    if (!(h.w > 0.0)) return -1.0;
+    const Vec3 q = Vec3(h) / h.w;
+    lo = glm::min(lo, q), hi = glm::max(hi, q);
+  }
+  const Vec3 d = glm::max(glm::max(lo - p, p - hi), Vec3(0.0));
+  return glm::length(d);
+}
+
+// Even-odd crossing of a ray from c along +x with the closed polygon `points`.
+bool odd_crossings(const std::vector<Vec2>& points, const Vec2& c) {
+  bool odd = false;
+  for (size_t i = 0, n = points.size(); i < n; ++i) {
+    const Vec2 a = points[i], b = points[(i + 1) % n];
+    if ((a.y > c.y) != (b.y > c.y)) {
+      const double x = a.x + (c.y - a.y) * (b.x - a.x) / (b.y - a.y);
+      if (x > c.x) odd = !odd;
+    }
+  }
+  return odd;
+}
+
+struct Band {
+  Vec2 a, b;                // the chord, metric
+  double deviation = kInf;  // of the curve from the chord, metric
+  std::vector<Vec2> trace;  // metric
+  double trace_deviation = kInf;
+  // Distance from x to the trace band's edge (negative inside).
+  double clearance(const Vec2& x) const {
+    double d = kInf;
+    for (size_t i = 0; i + 1 < trace.size(); ++i) d = std::min(d, segment_distance(x, trace[i], trace[i + 1]));
+    return d - trace_deviation;
+  }
+};
+
+}  // namespace sliver
+
+void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Model& model,
+                            const std::vector<Triangle>& vertices, size_t emitted,
+                            const std::vector<std::array<Vec2, 3>>& corner_uv,
+                            const std::vector<uint32_t>& chord_triangle, DistanceInterval& m2s) {
+  using namespace sliver;
+  const occt::PartFace& f = g.f;
+  const Vec2 m = f.chord_metric;
+  const double range = g.range() * std::max(m.x, m.y);
+  std::vector<Band> bands(f.chords.size());
+  // The face is its patches' surface over D (the certificate's upper bounds take it so too); the
+  // chords and the patch grid must share one (U, V) window (not shifted by a period).
+  const Vec2 lo = m * Vec2(f.u_breaks.front(), f.v_breaks.front()), hi = m * Vec2(f.u_breaks.back(), f.v_breaks.back());
+  const double slack = 1e-6 * range;
+  for (size_t k = 0; k < f.chords.size(); ++k) {
+    const occt::BoundaryChord& c = f.chords[k];
+    Band& band = bands[k];
+    band.a = m * c.uv_a, band.b = m * c.uv_b, band.deviation = c.deviation, band.trace_deviation = c.trace_deviation;
+    for (const Vec2& q : c.trace) band.trace.push_back(m * q);
+    if (!(c.trace_deviation < kInf) || band.trace.size() < 2) return;
+    for (const Vec2& q : band.trace) {
+      if (!(q.x >= lo.x - slack && q.x <= hi.x + slack && q.y >= lo.y - slack && q.y <= hi.y + slack)) return;
+    }
+  }
+  // Candidates: chords whose curve bulges to the side of the triangle on them, largest deviation first.
+  struct Candidate {
+    size_t chord;
+    Vec2 edge_mid;  // metric: the midpoint of the triangle's edge on the chord
+    Vec2 inward;    // metric: from there towards the triangle's third corner
+  };
+  std::vector<Candidate> candidates;
+  for (size_t k = 0; k < f.chords.size(); ++k) {
+    const occt::BoundaryChord& c = f.chords[k];
+    const uint32_t t = chord_triangle[k];
+    if (c.a == c.b || !(c.deviation > 0.0) || t >= emitted) continue;  // an emitted triangle: p is on the mesh
+    int third = -1, at_a = -1, at_b = -1;
+    for (int i = 0; i < 3; ++i) {
+      const uint32_t v = vertices[t][i];
+      if (v == c.a)
+        at_a = i;
+      else if (v == c.b)
+        at_b = i;
+      else
+        third = i;
+    }
+    if (third < 0 || at_a < 0 || at_b < 0) continue;
+    const Vec2 chord_mid = 0.5 * (c.uv_a + c.uv_b), edge_mid = 0.5 * (corner_uv[t][at_a] + corner_uv[t][at_b]);
+    const Vec2 shift = (chord_mid - edge_mid) - periodic_difference(g, chord_mid - edge_mid);
+    const Band& band = bands[k];
+    const Vec2 mid = 0.5 * (band.a + band.b), w = m * (corner_uv[t][third] + shift), along = band.b - band.a;
+    const auto side = [&](const Vec2& x) { return along.x * (x.y - band.a.y) - along.y * (x.x - band.a.x); };
+    double bulge = 0.0;
+    for (const Vec2& q : band.trace) bulge = std::abs(side(q)) > std::abs(bulge) ? side(q) : bulge;
+    if (bulge * side(w) <= 0.0) continue;
+    candidates.push_back({k, m * (edge_mid + shift), w - m * (edge_mid + shift)});
+  }
+  constexpr size_t kCandidates = 24;
+  const auto larger = [&](const Candidate& x, const Candidate& y) {
+    return f.chords[x.chord].deviation > f.chords[y.chord].deviation;
+  };
+  if (candidates.size() > kCandidates) {
+    std::nth_element(candidates.begin(), candidates.begin() + kCandidates, candidates.end(), larger);
+    candidates.resize(kCandidates);
+  }
+  std::sort(candidates.begin(), candidates.end(), larger);
+
+  // The rounding of sub-nets (halvings average homogeneous points; 4000 boxes are < 64 halvings
+  // deep) and of the hull's box, through the weights' spread.
+  double patch_size = 0.0, spread = 1.0;
+  for (const BezierPatch& patch : model.patches) {
+    for (const Vec3& q : patch.points) patch_size = std::max({patch_size, std::abs(q.x), std::abs(q.y), std::abs(q.z)});
+    if (patch.rational()) {
+      const auto [w0, w1] = std::minmax_element(patch.weights.begin(), patch.weights.end());
+      spread = std::max(spread, *w1 / *w0);
+    }
+  }
+  const double net_rounding = 256.0 * kUnit * spread * patch_size;
+  for (const Candidate& cand : candidates) {
+    const occt::BoundaryChord& c = f.chords[cand.chord];
+    const Band& own = bands[cand.chord];
+    const Vec2 mid = 0.5 * (own.a + own.b);
+    // 1. The clearance of N: own band first, then the bands whose chord comes that close.
+    double r = own.clearance(mid);
+    for (const Band& band : bands) {
+      if (segment_distance(mid, band.a, band.b) - band.deviation < r) r = std::min(r, band.clearance(mid));
+    }
+    r -= 1e-12 * range;
+    if (!(r > 1e-9 * range)) continue;
+    // 2. c on the triangle's median from its edge's midpoint (the chord's, up to the tiling's
+    // matching tolerance), inside N and strictly inside the triangle.
+    const double reach = glm::length(cand.inward);
+    if (!(reach > 0.0) || !(glm::length(cand.edge_mid - mid) <= 1e-3 * r)) continue;
+    const Vec2 point = cand.edge_mid + std::min(0.49 * r, 0.5 * reach) / reach * cand.inward;
+    bool outside = false, decided = true;  // indicator of P at c is 1
+    for (const Band& band : bands) {
+      const double to_chord = segment_distance(point, band.a, band.b);
+      if (to_chord > band.deviation) continue;
+      // Too near a chord for the crossing test, or within the tiling's matching tolerance (1e-7 of
+      // the range) of the polygon's edge.
+      if (to_chord < 1e-6 * range) decided = false;
+      if (odd_crossings(band.trace, point)) outside = !outside;
+    }
+    if (!decided || !outside) continue;
+    // 3. Branch and bound over the patches' boxes off N.
+    const Vec3 p = 0.5 * (part.mesh.positions[c.a] + part.mesh.positions[c.b]);
+    double estimate = kInf;  // of d(p, F): the trimming curve's middle point
+    for (const Vec3& q : c.curve_points) estimate = std::min(estimate, glm::length(q - p) + c.curve_point_error);
+    if (!(estimate > m2s.lower)) continue;
+    struct Box {
+      double lower;
+      uint32_t patch;
+      Vec2 s, t;  // local [s.x, s.y] x [t.x, t.y]
+      Net net;
+      bool operator>(const Box& o) const { return lower > o.lower; }
+    };
+    const auto corners_in_n = [&](const Box& b) {
+      for (const double s : {b.s.x, b.s.y}) {
+        for (const double t : {b.t.x, b.t.y}) {
+          if (!(glm::length(m * g.to_uv(b.patch, Vec2(s, t)) - mid) <= r)) return false;
+        }
+      }
+      return true;
+    };
+    const double rounding = net_rounding + 4.0 * kUnit * glm::length(p);
+    std::priority_queue<Box, std::vector<Box>, std::greater<Box>> open;
+    bool sound = true;
+    const auto push = [&](Box b) {
+      if (corners_in_n(b)) return;
+      b.lower = hull_distance(b.net, p);
+      if (b.lower < 0.0) sound = false;
+      open.push(std::move(b));
+    };
+    for (uint32_t k = 0; k < model.patches.size(); ++k)
+      push({0.0, k, Vec2(0.0, 1.0), Vec2(0.0, 1.0), homogeneous_net(model.patches[k])});
+    double lower = -1.0;
+    for (int nodes = 0; sound && !open.empty(); ++nodes) {
+      Box b = open.top();
+      open.pop();
+      const Vec2 c00 = m * g.to_uv(b.patch, Vec2(b.s.x, b.t.x)), c11 = m * g.to_uv(b.patch, Vec2(b.s.y, b.t.y));
+      const Vec2 extent = glm::abs(c11 - c00);
+      if (b.lower >= 0.98 * estimate || nodes >= 4000 || std::max(extent.x, extent.y) <= r / 64.0) {
+        lower = b.lower;
+        break;
+      }
+      const BezierPatch& patch = model.patches[b.patch];
+      const int axis = extent.x >= extent.y ? 0 : 1;
+      auto [low, high] = halve(b.net, patch.rows(), patch.cols(), axis);
+      Box left = b, right = std::move(b);
+      left.net = std::move(low), right.net = std::move(high);
+      if (axis == 0) {
+        left.s.y = right.s.x = 0.5 * (left.s.x + left.s.y);
+      } else {
+        left.t.y = right.t.x = 0.5 * (left.t.x + left.t.y);
+      }
+      push(std::move(left));
+      push(std::move(right));
+    }
+    lower = lower * (1.0 - 8.0 * kUnit) - rounding;
+    if (!sound || !(lower > m2s.lower)) continue;
+    m2s.lower = lower;
+    m2s.witness = p;
+    m2s.witness_patch = -1;
+  }
+}
+
 // The loops route for face `face` (see FaceCertificate).
 FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const std::vector<uint32_t>& triangles,
                                   const CertifyOptions& options, std::vector<double>& triangle_upper) {
@@ -505,6 +762,8 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   fc.mesh_to_surface = d.mesh_to_surface;
   fc.surface_to_mesh = d.surface_to_mesh;
   raise_lower_on_curves(f, pieces.mesh, fc.surface_to_mesh);
+  if (tiling.empty())
+    raise_lower_in_slivers(part, g, model, vertices, triangles.size(), corner_uv, chord_triangle, fc.mesh_to_surface);
   fc.mesh_to_surface.upper = face_upper;
   fc.surface_to_mesh.upper = face_upper;
   if (!tiling.empty()) {

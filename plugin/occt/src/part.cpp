@@ -719,7 +719,10 @@ BoundaryChord bound_chord(const FaceGeometry& g, const RangeCurve& rc, const Loo
     const std::vector<double>& vb = g.report.v_breaks;
     map.to_uv_error = 1e-12 * std::max(ub.back() - ub.front(), vb.back() - vb.front());
   }
-  c.deviation = detail::chord_deviation(rc.pc, rc.param(p.t), rc.param(q.t), map, c.uv_a, c.uv_b);
+  detail::ChordTrace trace;
+  c.deviation = detail::chord_deviation(rc.pc, rc.param(p.t), rc.param(q.t), map, c.uv_a, c.uv_b, &trace);
+  c.trace = std::move(trace.points);
+  c.trace_deviation = trace.deviation;
   for (int k = 0; k < 3; ++k) {
     const double t = p.t + 0.25 * (k + 1) * (q.t - p.t);
     const gp_Pnt2d r = rc.pc->Value(rc.param(t));
@@ -728,7 +731,10 @@ BoundaryChord bound_chord(const FaceGeometry& g, const RangeCurve& rc, const Loo
                                   std::abs(c.curve_points[k].z)});
     c.curve_point_error = std::max(c.curve_point_error, 1e-12 * size);
   }
-  if (rc.reversed) std::swap(c.a, c.b), std::swap(c.uv_a, c.uv_b);  // along the loop
+  if (rc.reversed) {  // along the loop
+    std::swap(c.a, c.b), std::swap(c.uv_a, c.uv_b);
+    std::reverse(c.trace.begin(), c.trace.end());
+  }
   return c;
 }
 

@@ -22,6 +22,7 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kNodeBudget = 512;  // sub-arcs split per Bézier piece of a chord's curve
+constexpr int kTraceDepth = 8;    // halvings per Bézier piece for ChordTrace
 
 double segment_distance(const Vec2& p, const Vec2& a, const Vec2& b) {
   const Vec2 d = b - a;
@@ -68,7 +69,8 @@ struct Bounder {
 
   // A bound of the arc's distance to [a, b] from its control points' hull (through the map: the
   // hull's box, mapped corner by corner, plus the map's own error).
-  double hull_bound(const Arc& arc) const {
+  double hull_bound(const Arc& arc) const { return hull_bound(arc, a, b); }
+  double hull_bound(const Arc& arc, const Vec2& a, const Vec2& b) const {
     if (map.identity) {
       double d = 0.0;
       for (const glm::dvec3& h : arc) d = std::max(d, segment_distance(mapped(euclid(h)), a, b));
@@ -117,12 +119,29 @@ struct Bounder {
     }
     return settled;
   }
+
+  // Appends the end points (metric) of sub-arcs of `arc`, halved until each lies within `target` of
+  // the segment between its own end points (or after kTraceDepth halvings); `deviation` gets the
+  // largest such bound. The first sub-arc starts at the arc's first control point.
+  void trace(const Arc& arc, int depth, double target, std::vector<Vec2>& points, double& deviation) const {
+    const Vec2 s = mapped(euclid(arc.front())), e = mapped(euclid(arc.back()));
+    const double h = hull_bound(arc, s, e);
+    if (h <= target || depth >= kTraceDepth) {
+      points.push_back(e);
+      deviation = std::max(deviation, h);
+      return;
+    }
+    auto [left, right] = halves(arc);
+    trace(left, depth + 1, target, points, deviation);
+    trace(right, depth + 1, target, points, deviation);
+  }
 };
 
 }  // namespace
 
-double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1, const ParameterMap& map, const Vec2& a_uv,
-                       const Vec2& b_uv) {
+double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1, const ParameterMap& map,
+                       const Vec2& a_uv, const Vec2& b_uv, ChordTrace* trace) {
+  if (trace) *trace = ChordTrace{{a_uv, b_uv}, kInf};
   const Vec2 a = map.metric * a_uv, b = map.metric * b_uv;
   const double scale = std::max({std::abs(a.x), std::abs(a.y), std::abs(b.x), std::abs(b.y)}) + glm::length(b - a);
   const Bounder bounder{map, a, b, 1e-9 * glm::length(b - a), map.identity ? 16 : 14};
@@ -130,13 +149,16 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
   try {
     if (p0 == p1) {
       const gp_Pnt2d q = pcurve->Value(p0);
-      return segment_distance(bounder.mapped(Vec2(q.X(), q.Y())), a, b) +
-             map.to_uv_error * std::max(map.metric.x, map.metric.y) + rounding;
+      const double d = segment_distance(bounder.mapped(Vec2(q.X(), q.Y())), a, b) +
+                       map.to_uv_error * std::max(map.metric.x, map.metric.y) + rounding;
+      if (trace) trace->deviation = d;
+      return d;
     }
     Handle(Geom2d_TrimmedCurve) piece = new Geom2d_TrimmedCurve(pcurve, std::min(p0, p1), std::max(p0, p1));
     const Handle(Geom2d_BSplineCurve) spline = Geom2dConvert::CurveToBSplineCurve(piece);
     Geom2dConvert_BSplineCurveToBezierCurve bezier(spline);
     double deviation = 0.0;
+    std::vector<Arc> arcs;
     for (int k = 1; k <= bezier.NbArcs(); ++k) {
       const Handle(Geom2d_BezierCurve) arc = bezier.Arc(k);
       Arc h;
@@ -147,8 +169,33 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
         h.push_back(glm::dvec3(w * q.X(), w * q.Y(), w));
       }
       deviation = std::max(deviation, bounder.bound(h));
+      arcs.push_back(std::move(h));
     }
-    return std::isfinite(deviation) ? deviation + rounding : kInf;
+    if (!std::isfinite(deviation)) return kInf;
+    if (trace && (deviation <= bounder.floor || !map.identity)) {
+      trace->deviation = deviation + rounding;  // a straight curve: the chord is its own trace
+    } else if (trace && !arcs.empty()) {
+      // Sub-arcs in increasing curve parameter; the polyline runs from a to b, so it is reversed when
+      // p0 > p1. Its ends are moved onto a and b, and consecutive Bézier pieces may meet a rounding
+      // apart: those moves are added to the bound (the distance to a segment moves by at most the
+      // move of its end points).
+      std::vector<Vec2> points{bounder.mapped(euclid(arcs.front().front()))};
+      double bound = 0.0, joins = 0.0;
+      for (const Arc& h : arcs) {
+        joins = std::max(joins, glm::length(bounder.mapped(euclid(h.front())) - points.back()));
+        bounder.trace(h, 0, deviation / 32.0, points, bound);
+      }
+      if (p0 > p1) std::reverse(points.begin(), points.end());
+      joins = std::max({joins, glm::length(points.front() - a), glm::length(points.back() - b)});
+      points.front() = a, points.back() = b;
+      trace->points.clear();
+      for (const Vec2& q : points) trace->points.push_back(q / map.metric);
+      trace->points.front() = a_uv, trace->points.back() = b_uv;
+      // Metric <-> (U, V) divisions round each point by a few units of `scale`.
+      trace->deviation = bound + joins + 2.0 * rounding;
+      if (!std::isfinite(trace->deviation)) *trace = ChordTrace{{a_uv, b_uv}, kInf};
+    }
+    return deviation + rounding;
   } catch (const Standard_Failure&) {
     return kInf;
   }

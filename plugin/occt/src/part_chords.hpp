@@ -9,6 +9,8 @@
 #include <Geom2d_Curve.hxx>
 
 #include <functional>
+#include <limits>
+#include <vector>
 
 namespace sagitta::occt::detail {
 
@@ -30,7 +32,18 @@ struct ParameterMap {
 // largest curve point distance seen (or a depth / node budget is spent). Through a non-identity map
 // each piece's (u, v) box is mapped corner by corner (monotone coordinates). +infinity when the
 // curve cannot be converted or has a non-positive weight.
-double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1, const ParameterMap& map, const Vec2& a_uv,
-                       const Vec2& b_uv);
+//
+// With `trace`: also a finer polyline along the same curve piece, from a_uv to b_uv in (U, V), and a
+// proven bound (same metric) such that the curve's sub-arc between consecutive points lies within
+// it of the segment between them. Sub-arcs are halved (de Casteljau, no further OCCT call) until
+// each bound is at most 1/32 of the chord's deviation (or 8 halvings per Bézier piece); a curve
+// within the straight-curve floor of its chord (1e-9 of its length) is traced by the chord itself. Left with the
+// two end points and +infinity when the deviation is not proven.
+struct ChordTrace {
+  std::vector<Vec2> points;
+  double deviation = std::numeric_limits<double>::infinity();
+};
+double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1, const ParameterMap& map,
+                       const Vec2& a_uv, const Vec2& b_uv, ChordTrace* trace = nullptr);
 
 }  // namespace sagitta::occt::detail

@@ -197,6 +197,30 @@ TEST(AppPart, TrimmedFacesAreCertifiedOrSayWhy) {
   EXPECT_EQ(app::part_certificate_json(part, cert)["certified"], cert.all_certified);
 }
 
+// Planes with holes: the mesh covers the slivers between a hole's circle and its chords, outside the
+// face, so the error sits there; the upper bound is the sliver's width and the lower bound must prove
+// that the face keeps away from the chord's midpoint (raise_lower_in_slivers). Before it, the lower
+// bound of these faces was 0 (the untrimmed plane passes through the midpoint). tr10 has 46 such faces.
+TEST(AppPart, PlanesWithHolesHaveTightIntervals) {
+  const std::string path = shared_data("cad/step/tr10_r0901_ec.stp");
+  SAGITTA_REQUIRE_DATA(path);
+  const occt::PartMesh part = mesh_part(path, 2);
+  const app::PartCertificate cert = app::certify_part(part);
+  const double exact = 1e-9 * model_box(part.model).diagonal();  // exact up to rounding below this
+  int planes = 0;
+  for (const app::FaceCertificate& f : cert.faces) {
+    const occt::PartFace& face = part.faces[static_cast<size_t>(f.face)];
+    if (!face.trimmed || face.surface_type != "Plane") continue;
+    ASSERT_TRUE(f.certified) << face.name << ": " << f.reason;
+    if (!(f.hausdorff.upper > exact)) continue;
+    ++planes;
+    EXPECT_LE(f.hausdorff.upper, 1.5 * f.hausdorff.lower)
+        << face.name << " [" << f.hausdorff.lower << ", " << f.hausdorff.upper << "]";
+  }
+  EXPECT_GE(planes, 40);
+  expect_face_bounds_hold(part, cert);
+}
+
 // An open shell of untrimmed planes (FreeCAD fixture): every face covered, the part certified as a
 // whole, and its rim (the B-rep's free edges) is model boundary, not a crack.
 TEST(AppPart, UntrimmedOpenShellIsCertifiedWhole) {

@@ -45,6 +45,12 @@ struct BoundaryChord {
   // face -> mesh distance, each within curve_point_error of the face.
   std::array<Vec3, 3> curve_points{};
   double curve_point_error = 0.0;
+  // A finer polyline along the same trimming curve, from uv_a to uv_b in (U, V): the curve's piece
+  // between consecutive points lies within trace_deviation (metric as `deviation`)
+  // of the segment between them (about 1/32 of `deviation`). It decides which side of the curve a point of a sliver
+  // lies on (the certificate's lower bounds, docs/VALIDATION.md).
+  std::vector<Vec2> trace;
+  double trace_deviation = std::numeric_limits<double>::infinity();
 };
 
 // One face of the part (faces in TopExp::MapShapes order, named as FreeCAD names them).
