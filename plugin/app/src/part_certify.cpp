@@ -592,6 +592,8 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
     }
   }
   const double net_rounding = 256.0 * kUnit * spread * patch_size;
+  constexpr int kNodes = 1500;  // boxes popped per candidate
+  double per_deviation = kInf;  // lower bound found per unit of chord deviation (kInf: none found yet)
   for (const Candidate& cand : candidates) {
     const occt::BoundaryChord& c = f.chords[cand.chord];
     const Band& own = bands[cand.chord];
@@ -622,7 +624,9 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
     const Vec3 p = 0.5 * (part.mesh.positions[c.a] + part.mesh.positions[c.b]);
     double estimate = kInf;  // of d(p, F): the trimming curve's middle point
     for (const Vec3& q : c.curve_points) estimate = std::min(estimate, glm::length(q - p) + c.curve_point_error);
-    if (!(estimate > m2s.lower)) continue;
+    // A chord as wide as one already bounded yields about as much (the same surface's scale): skip
+    // it unless its deviation promises 2 % more.
+    if (!(estimate > m2s.lower) || !(1.02 * per_deviation * c.deviation > m2s.lower)) continue;
     struct Box {
       double lower;
       uint32_t patch;
@@ -655,7 +659,7 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
       open.pop();
       const Vec2 c00 = m * g.to_uv(b.patch, Vec2(b.s.x, b.t.x)), c11 = m * g.to_uv(b.patch, Vec2(b.s.y, b.t.y));
       const Vec2 extent = glm::abs(c11 - c00);
-      if (b.lower >= 0.98 * estimate || nodes >= 4000 || std::max(extent.x, extent.y) <= r / 64.0) {
+      if (b.lower >= 0.98 * estimate || nodes >= kNodes || std::max(extent.x, extent.y) <= r / 16.0) {
         lower = b.lower;
         break;
       }
@@ -674,6 +678,7 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
     }
     lower = lower * (1.0 - 8.0 * kUnit) - rounding;
     if (!sound || !(lower > m2s.lower)) continue;
+    per_deviation = per_deviation == kInf ? lower / c.deviation : std::max(per_deviation, lower / c.deviation);
     m2s.lower = lower;
     m2s.witness = p;
     m2s.witness_patch = -1;
