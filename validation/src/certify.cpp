@@ -1423,10 +1423,10 @@ std::vector<TriangleResult> refine_triangles(const Refinement& rf, const Estimat
         results[t].leaves = 1;
       } else {
         const auto nearest = [&rf, t](const Vec3& p, std::array<Vec3, 3>& tri) { return rf.nearest_around(t, p, tri); };
-        results[t] =
-            refine_triangle(rf.pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], triangle_corners(mesh, t), rf.tau,
-                            options.target_ratio, options.max_depth, s, false, nullptr, nearest,
-                            OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]}, static_cast<bool>(options.in_domain));
+        results[t] = refine_triangle(rf.pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], triangle_corners(mesh, t),
+                                     rf.tau, options.target_ratio, options.max_depth, s, false, nullptr, nearest,
+                                     OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]},
+                                     options.in_domain && !options.domain_contains_patches);
       }
       if (results[t].m2s_est < est.value[t]) {
         results[t].m2s_est = est.value[t];

@@ -733,6 +733,8 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
     cut.refine_floor = face_size > 0.0 ? 1e-7 * model_box(part.model).diagonal() / face_size : 0.0;
   }
   cut.in_domain = [&g](uint32_t local, Vec2 st) { return !near_a_chord(g, g.to_uv(local, st)); };
+  // An untrimmed face is its patches whole: a triangle may be matched to its corners' projections.
+  cut.domain_contains_patches = !f.trimmed;
   DistanceReport d = certify_distance(model, pieces.mesh, cut);
 
   // Per triangle (and collapsed triangle): its pieces' bound, plus the rounding of the pieces' corners

@@ -57,6 +57,11 @@ struct CertifyOptions {
   //    (certified by the caller when it proves the triangles cover the domain).
   // Called from several threads at once: it must be thread safe.
   std::function<bool(uint32_t patch, Vec2 uv)> in_domain;
+  // With in_domain: the domain contains every patch whole (an untrimmed face cut along its patch
+  // grid; in_domain then only keeps lower-bound witnesses off the boundary). Mesh->surface may then
+  // match a triangle to its corners' projections onto its own patch (a (u, v) triangle inside the
+  // patch lies in the domain), as without in_domain; the other restrictions stay.
+  bool domain_contains_patches = false;
 };
 
 struct DistanceReport {
