@@ -18,6 +18,7 @@
 #include <map>
 #include <queue>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -215,43 +216,157 @@ double polynomial_cross_bound(const BezierPatch& patch) {
   return cross;
 }
 
-Gram face_gram(const Model& model, const Grid& g) {
-  Gram gram;
+// The Gram bound of one (sub-)patch whose parameters span span_u x span_v of the face's (U, V),
+// before the rounding margin; `slack` is added to each control-net difference (a sub-net's rounding).
+Gram net_gram(const BezierPatch& patch, double span_u, double span_v, double slack) {
+  Vec3 o(0.0);
+  for (const Vec3& q : patch.points) o += q / double(patch.points.size());
+  double wmin = kInf, radius = 0.0;
+  for (int i = 0; i < patch.rows(); ++i) {
+    for (int j = 0; j < patch.cols(); ++j) {
+      wmin = std::min(wmin, patch.weight(i, j));
+      radius = std::max(radius, glm::length(patch.at(i, j) - o));
+    }
+  }
+  double du = 0.0, dv = 0.0, wu = 0.0, wv = 0.0;
+  for (int i = 0; i < patch.rows(); ++i) {
+    for (int j = 0; j < patch.cols(); ++j) {
+      const Vec3 h = patch.weight(i, j) * (patch.at(i, j) - o);
+      if (i + 1 < patch.rows()) {
+        du = std::max(du, glm::length(patch.weight(i + 1, j) * (patch.at(i + 1, j) - o) - h));
+        wu = std::max(wu, std::abs(patch.weight(i + 1, j) - patch.weight(i, j)));
+      }
+      if (j + 1 < patch.cols()) {
+        dv = std::max(dv, glm::length(patch.weight(i, j + 1) * (patch.at(i, j + 1) - o) - h));
+        wv = std::max(wv, std::abs(patch.weight(i, j + 1) - patch.weight(i, j)));
+      }
+    }
+  }
+  const double su = patch.degree_u * (du + slack + radius * wu) / wmin;
+  const double sv = patch.degree_v * (dv + slack + radius * wv) / wmin;
+  const double cross = patch.rational() || slack > 0.0 ? su * sv : polynomial_cross_bound(patch);
+  return {(su / span_u) * (su / span_u), std::min(cross, su * sv) / (span_u * span_v), (sv / span_v) * (sv / span_v)};
+}
+
+// Per patch of the face (grid order): its Gram bound in the face's (U, V), before the rounding margin.
+std::vector<Gram> patch_grams(const Model& model, const Grid& g) {
+  std::vector<Gram> grams(model.patches.size());
   for (size_t p = 0; p < model.patches.size(); ++p) {
-    const BezierPatch& patch = model.patches[p];
-    Vec3 o(0.0);
-    for (const Vec3& q : patch.points) o += q / double(patch.points.size());
-    double wmin = kInf, radius = 0.0;
-    for (int i = 0; i < patch.rows(); ++i) {
-      for (int j = 0; j < patch.cols(); ++j) {
-        wmin = std::min(wmin, patch.weight(i, j));
-        radius = std::max(radius, glm::length(patch.at(i, j) - o));
-      }
-    }
-    double du = 0.0, dv = 0.0, wu = 0.0, wv = 0.0;
-    for (int i = 0; i < patch.rows(); ++i) {
-      for (int j = 0; j < patch.cols(); ++j) {
-        const Vec3 h = patch.weight(i, j) * (patch.at(i, j) - o);
-        if (i + 1 < patch.rows()) {
-          du = std::max(du, glm::length(patch.weight(i + 1, j) * (patch.at(i + 1, j) - o) - h));
-          wu = std::max(wu, std::abs(patch.weight(i + 1, j) - patch.weight(i, j)));
-        }
-        if (j + 1 < patch.cols()) {
-          dv = std::max(dv, glm::length(patch.weight(i, j + 1) * (patch.at(i, j + 1) - o) - h));
-          wv = std::max(wv, std::abs(patch.weight(i, j + 1) - patch.weight(i, j)));
-        }
-      }
-    }
-    const double su = patch.degree_u * (du + radius * wu) / wmin, sv = patch.degree_v * (dv + radius * wv) / wmin;
-    const double cross = patch.rational() ? su * sv : polynomial_cross_bound(patch);
     const size_t i = p / g.nv, j = p % g.nv;
-    const double span_u = g.f.u_breaks[i + 1] - g.f.u_breaks[i], span_v = g.f.v_breaks[j + 1] - g.f.v_breaks[j];
-    gram.uu = std::max(gram.uu, (su / span_u) * (su / span_u));
-    gram.vv = std::max(gram.vv, (sv / span_v) * (sv / span_v));
-    gram.uv = std::max(gram.uv, std::min(cross, su * sv) / (span_u * span_v));
+    grams[p] =
+        net_gram(model.patches[p], g.f.u_breaks[i + 1] - g.f.u_breaks[i], g.f.v_breaks[j + 1] - g.f.v_breaks[j], 0.0);
+  }
+  return grams;
+}
+
+// The patch restricted to [s0, s1] x [t0, t1] of its own parameters (de Casteljau on the
+// homogeneous net, both ends), and a bound on the rounding of its control points (weighted).
+BezierPatch sub_patch(const BezierPatch& patch, double s0, double s1, double t0, double t1, double& rounding) {
+  const int rows = patch.rows(), cols = patch.cols();
+  std::vector<glm::dvec4> h(static_cast<size_t>(rows * cols));
+  double size = 0.0, wmax = 0.0;
+  for (int i = 0; i < rows; ++i) {
+    for (int j = 0; j < cols; ++j) {
+      const double w = patch.weight(i, j);
+      h[static_cast<size_t>(i * cols + j)] = glm::dvec4(w * patch.at(i, j), w);
+      const Vec3& q = patch.at(i, j);
+      size = std::max({size, std::abs(q.x), std::abs(q.y), std::abs(q.z)});
+      wmax = std::max(wmax, w);
+    }
+  }
+  // One line of n points restricted to [a, b]: the right part at a, then the left part at the
+  // rescaled b.
+  const auto restrict_line = [](std::vector<glm::dvec4>& line, double a, double b) {
+    const size_t n = line.size();
+    for (size_t level = 1; level < n; ++level) {
+      for (size_t k = 0; k + level < n; ++k) line[k] = (1.0 - a) * line[k] + a * line[k + 1];
+    }
+    // line[k] now holds the right part's point k counted from its end: reorder.
+    std::vector<glm::dvec4> right(n);
+    for (size_t k = 0; k < n; ++k) right[k] = line[k];
+    // De Casteljau above leaves right[k] = b_k^{n-1-k}(a) for the points from k: that is the right
+    // part's control point k.
+    const double c = a < 1.0 ? (b - a) / (1.0 - a) : 0.0;
+    std::vector<glm::dvec4> left(n), work = right;
+    for (size_t level = 0; level < n; ++level) {
+      left[level] = work[0];
+      for (size_t k = 0; k + 1 < n - level; ++k) work[k] = (1.0 - c) * work[k] + c * work[k + 1];
+    }
+    line = left;
+  };
+  std::vector<glm::dvec4> line;
+  for (int j = 0; j < cols; ++j) {  // along u
+    line.clear();
+    for (int i = 0; i < rows; ++i) line.push_back(h[static_cast<size_t>(i * cols + j)]);
+    restrict_line(line, s0, s1);
+    for (int i = 0; i < rows; ++i) h[static_cast<size_t>(i * cols + j)] = line[static_cast<size_t>(i)];
+  }
+  for (int i = 0; i < rows; ++i) {  // along v
+    line.assign(h.begin() + i * cols, h.begin() + (i + 1) * cols);
+    restrict_line(line, t0, t1);
+    std::copy(line.begin(), line.end(), h.begin() + i * cols);
+  }
+  BezierPatch sub = patch;
+  for (size_t k = 0; k < h.size(); ++k) {
+    sub.points[k] = Vec3(h[k]) / h[k].w;
+    if (sub.rational()) sub.weights[k] = h[k].w;
+  }
+  // Each convex combination rounds by a unit; 4 (n + m) levels of them, through weights >= wmin.
+  double wmin = kInf;
+  for (size_t k = 0; k < h.size(); ++k) wmin = std::min(wmin, h[k].w);
+  rounding = 64.0 * (rows + cols) * kUnit * (size + 1.0) * wmax / wmin;
+  return sub;
+}
+
+// The Gram bound over the face's (U, V) box [lo, hi]: for each patch whose cell meets it, the
+// sub-net over the part of the cell inside the box (the whole cell's bound when that part is
+// most of it), with the rounding margin. Cells are clamped onto the grid.
+Gram gram_over(const Model& model, const std::vector<Gram>& grams, const Grid& g, const Vec2& lo, const Vec2& hi) {
+  const auto cells = [](const std::vector<double>& breaks, double a, double b) {
+    const size_t n = breaks.size() - 1;
+    size_t first = static_cast<size_t>(std::upper_bound(breaks.begin(), breaks.end(), a) - breaks.begin());
+    size_t last = static_cast<size_t>(std::lower_bound(breaks.begin(), breaks.end(), b) - breaks.begin());
+    first = first == 0 ? 0 : std::min(first - 1, n - 1);
+    last = std::max(std::min(last, n), first + 1);
+    if (!(a == a) || !(b == b)) first = 0, last = n;  // NaN: every cell
+    return std::pair<size_t, size_t>{first, last};
+  };
+  // The part of [b0, b1] inside [a, b], as fractions of the cell (at least 1e-6 of it wide).
+  const auto fraction = [](double b0, double b1, double a, double b) {
+    double f0 = std::clamp((a - b0) / (b1 - b0), 0.0, 1.0), f1 = std::clamp((b - b0) / (b1 - b0), 0.0, 1.0);
+    if (!(f0 == f0) || !(f1 == f1)) f0 = 0.0, f1 = 1.0;
+    if (f1 - f0 < 1e-6) f0 = std::max(0.0, f1 - 1e-6), f1 = f0 + 1e-6;
+    return std::pair<double, double>{f0, f1};
+  };
+  const auto [i0, i1] = cells(g.f.u_breaks, lo.x, hi.x);
+  const auto [j0, j1] = cells(g.f.v_breaks, lo.y, hi.y);
+  Gram gram;
+  for (size_t i = i0; i < i1; ++i) {
+    for (size_t j = j0; j < j1; ++j) {
+      const size_t p = i * g.nv + j;
+      Gram cell = grams[p];
+      const double bu0 = g.f.u_breaks[i], bu1 = g.f.u_breaks[i + 1], bv0 = g.f.v_breaks[j], bv1 = g.f.v_breaks[j + 1];
+      auto [s0, s1] = fraction(bu0, bu1, lo.x, hi.x);
+      const auto [t0, t1] = fraction(bv0, bv1, lo.y, hi.y);
+      if (s1 - s0 < 0.5 || t1 - t0 < 0.5) {
+        if (g.f.reversed) std::tie(s0, s1) = std::pair<double, double>{1.0 - s1, 1.0 - s0};
+        double rounding = 0.0;
+        const BezierPatch sub = sub_patch(model.patches[p], s0, s1, t0, t1, rounding);
+        const Gram local = net_gram(sub, (s1 - s0) * (bu1 - bu0), (t1 - t0) * (bv1 - bv0), rounding);
+        if (std::isfinite(local.uu) && std::isfinite(local.vv) && std::isfinite(local.uv)) {
+          cell = {std::min(cell.uu, local.uu), std::min(cell.uv, local.uv), std::min(cell.vv, local.vv)};
+        }
+      }
+      gram.uu = std::max(gram.uu, cell.uu), gram.uv = std::max(gram.uv, cell.uv), gram.vv = std::max(gram.vv, cell.vv);
+    }
   }
   const double margin = 1.0 + 256.0 * kUnit;
   return {gram.uu * margin, gram.uv * margin + 64.0 * kUnit * std::sqrt(gram.uu * gram.vv), gram.vv * margin};
+}
+
+Gram face_gram(const std::vector<Gram>& grams, const Grid& g) {
+  const Vec2 lo(g.f.u_breaks.front(), g.f.v_breaks.front()), hi(g.f.u_breaks.back(), g.f.v_breaks.back());
+  return gram_over(Model{}, grams, g, lo, hi);
 }
 
 // |DS h| <= lipschitz |h|_m for h measured with U scaled by m.x and V by m.y: the square root of the
@@ -747,9 +862,12 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   std::vector<double> upper = base;
   // The slivers between chords and trimming curves: within `deviation` (metric m) of a chord point c,
   // so within e_T + lipschitz * deviation of the mesh (both directions), T the triangle on the chord.
-  // A tiling gap of rounding size between neighbours' corners costs the speed times 1e-12 of the range.
-  const Gram gram = face_gram(model, g);
-  const double lipschitz = metric_lipschitz(gram, f.chord_metric);
+  // The segment from c to a sliver point lies in the chord's deviation band (convex) and in the
+  // face's rectangle (both ends do), so the speed bound is taken over the patches whose cells meet
+  // the band's box. A tiling gap of rounding size between neighbours' corners costs the face's
+  // largest speed times 1e-12 of the range.
+  const std::vector<Gram> grams = patch_grams(model, g);
+  const Gram gram = face_gram(grams, g);
   const double gap = (std::sqrt(gram.uu) + std::sqrt(gram.vv)) * 1e-12 * g.range();
   std::vector<uint32_t> chord_triangle;
   const std::string tiling = tiling_reason(g, vertices, corner_uv, chord_triangle);
@@ -758,7 +876,10 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   bool deviations_proven = true;
   if (tiling.empty()) {
     for (size_t k = 0; k < f.chords.size(); ++k) {
-      const double term = lipschitz * f.chords[k].deviation;
+      const occt::BoundaryChord& c = f.chords[k];
+      const Vec2 reach = Vec2(c.deviation) / f.chord_metric;
+      const Gram local = gram_over(model, grams, g, glm::min(c.uv_a, c.uv_b) - reach, glm::max(c.uv_a, c.uv_b) + reach);
+      const double term = metric_lipschitz(local, f.chord_metric) * c.deviation;
       deviations_proven = deviations_proven && std::isfinite(term);
       fc.sliver = std::max(fc.sliver, term);
       const uint32_t t = chord_triangle[k];

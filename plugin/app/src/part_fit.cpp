@@ -38,7 +38,11 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   fit.edge_tolerance = 0.5 * target;
   SolidCheckOptions check_options;
   check_options.self_intersections = false;
-  // One tessellate-validate-certify step at N segments; true when the target is met.
+  // One tessellate-validate-certify step at N segments; true when the certified faces meet the
+  // target. The search follows the certified faces' largest upper bound (the part's when every face
+  // is certified): a face that is not certified at some N (a (U, V) triangle degenerate at a coarse
+  // N, a p-curve with no exact Bézier form at any N) does not stop it, but the fit is met only when
+  // every face is certified.
   const auto attempt = [&](int segments, PartRun& run) {
     const Stopwatch step;
     if (progress) progress(static_cast<int>(fit.steps.size()) + 1, segments);
@@ -48,30 +52,39 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     run.part = mesher(part_options(scheme, fit.edge_tolerance));
     run.validation = validate_part(run.part, check_options);
     run.certificate = certify_part(run.part, certify);
-    const double upper = run.certificate.all_certified ? run.certificate.distance.hausdorff.upper : kInf;
-    fit.steps.push_back({segments, run.part.mesh.triangles.size(), run.certificate.all_certified, upper, step.seconds()});
-    return upper <= target;
+    const PartCertificate& c = run.certificate;
+    const double upper = c.all_certified ? c.distance.hausdorff.upper : kInf;
+    const double faces_upper = c.faces_certified > 0 ? c.certified_faces_upper : kInf;
+    fit.steps.push_back(
+        {segments, run.part.mesh.triangles.size(), c.all_certified, upper, faces_upper, step.seconds()});
+    return faces_upper <= target;
   };
-  // Doubling until met (or a face cannot be certified, or the cap); `lo` is the largest N known to fail.
+  const auto finish = [&](int segments, PartRun&& run) {
+    fit.segments = segments;
+    fit.run = std::move(run);
+    fit.seconds = clock.seconds();
+    if (fit.reason.empty() && !fit.run.certificate.all_certified) {
+      fit.reason = "cannot be certified: " + uncertified_faces(fit.run) + "; the certified faces' largest bound " +
+                   std::to_string(fit.run.certificate.certified_faces_upper) + " meets the target";
+    }
+    fit.met = fit.reason.empty();
+    return fit;
+  };
+  // Doubling until met (or no face can be certified, or the cap); `lo` is the largest N known to fail.
   int lo = 0, n = 1;
   PartRun run;
   while (true) {
     if (attempt(n, run)) break;
-    if (!run.certificate.all_certified) {
-      fit.segments = n;
+    if (run.certificate.faces_certified == 0) {
       fit.reason = "cannot be certified: " + uncertified_faces(run);
-      fit.run = std::move(run);
-      fit.seconds = clock.seconds();
-      return fit;
+      return finish(n, std::move(run));
     }
     lo = n;
     if (n == kMaxFitSegments) {
-      fit.segments = n;
       fit.reason = "not met at " + std::to_string(n) + " segments per patch side (certified error " +
-                   std::to_string(fit.steps.back().upper) + ")";
-      fit.run = std::move(run);
-      fit.seconds = clock.seconds();
-      return fit;
+                   std::to_string(fit.steps.back().faces_upper) +
+                   (run.certificate.all_certified ? ")" : " on the certified faces; " + uncertified_faces(run) + ")");
+      return finish(n, std::move(run));
     }
     n = std::min(2 * n, kMaxFitSegments);
   }
@@ -88,11 +101,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
       lo = mid;
     }
   }
-  fit.met = true;
-  fit.segments = hi;
-  fit.run = std::move(best);
-  fit.seconds = clock.seconds();
-  return fit;
+  return finish(hi, std::move(best));
 }
 
 nlohmann::json part_fit_json(const PartFit& fit) {
@@ -107,12 +116,15 @@ nlohmann::json part_fit_json(const PartFit& fit) {
   j["certified"] = fit.run.certificate.all_certified;
   j["certified_error"] = number_or_null(fit.run.certificate.all_certified ? fit.run.certificate.distance.hausdorff.upper : kInf);
   j["certified_lower_bound"] = fit.run.certificate.distance.hausdorff.lower;
+  j["certified_faces_error"] =
+      number_or_null(fit.run.certificate.faces_certified > 0 ? fit.run.certificate.certified_faces_upper : kInf);
   nlohmann::json steps = nlohmann::json::array();
   for (const PartFit::Step& s : fit.steps) {
     steps.push_back({{"segments", s.segments},
                      {"triangles", s.triangles},
                      {"certified", s.certified},
                      {"upper", number_or_null(s.upper)},
+                     {"certified_faces_upper", number_or_null(s.faces_upper)},
                      {"seconds", s.seconds}});
   }
   j["steps"] = steps;

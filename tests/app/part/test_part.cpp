@@ -243,6 +243,41 @@ TEST(AppPart, UntrimmedFacesInTheLoopsRouteAreTight) {
   expect_face_bounds_hold(part, cert);
 }
 
+// fit_part follows the certified faces when one face cannot be certified at any density (here a
+// planted one: a trimmed face's first chord deviation made unproven): it still densifies until the
+// other faces meet the target, and says met = false with that face and why.
+TEST(AppPart, FitContinuesPastAFaceThatIsNotCertified) {
+  const std::string path = shared_data("cad/step/OCC2368.stp");
+  SAGITTA_REQUIRE_DATA(path);
+  int planted = -1;
+  const auto mesher = [&](const occt::PartOptions& options) {
+    occt::PartMesh part = occt::mesh_part_file(path, options);
+    for (occt::PartFace& f : part.faces) {
+      if (!f.trimmed || f.chords.empty()) continue;
+      f.chords[0].deviation = std::numeric_limits<double>::infinity();
+      planted = f.face_index;
+      break;
+    }
+    return part;
+  };
+  const double target = 2e-3 * model_box(mesh_part(path, 0).model).diagonal();
+  const app::PartFit fit = app::fit_part(mesher, target, CertifyOptions{});
+  ASSERT_GE(planted, 0);
+  EXPECT_FALSE(fit.met);
+  EXPECT_GT(fit.steps.size(), 2u);  // it went on past the first step
+  EXPECT_GT(fit.segments, 1);
+  const app::PartCertificate& c = fit.run.certificate;
+  EXPECT_EQ(c.faces_certified + 1, static_cast<int>(fit.run.part.faces.size()));
+  EXPECT_FALSE(c.faces[static_cast<size_t>(planted)].certified);
+  EXPECT_LE(c.certified_faces_upper, target);
+  EXPECT_NE(fit.reason.find(fit.run.part.faces[static_cast<size_t>(planted)].name), std::string::npos) << fit.reason;
+  EXPECT_NE(fit.reason.find("not proven"), std::string::npos) << fit.reason;
+  // The smallest N: one segment fewer misses the target on the certified faces.
+  for (const app::PartFit::Step& step : fit.steps) {
+    if (step.segments < fit.segments) EXPECT_GT(step.faces_upper, target) << step.segments;
+  }
+}
+
 // An open shell of untrimmed planes (FreeCAD fixture): every face covered, the part certified as a
 // whole, and its rim (the B-rep's free edges) is model boundary, not a crack.
 TEST(AppPart, UntrimmedOpenShellIsCertifiedWhole) {

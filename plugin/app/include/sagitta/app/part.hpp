@@ -145,8 +145,10 @@ nlohmann::json part_report_entry(const std::string& path, const std::string& nam
 // patch side N, with every B-rep edge split until its chords lie within target / 2 of the curve.
 // The certified error of the part falls as N grows (both the triangles' and the slivers' terms);
 // N is doubled until the certificate meets the target, then bisected down to the smallest N that
-// meets it, the fewest triangles of this family. The search stops with met = false (and why) when
-// a face cannot be certified at all (its reason does not depend on N), or at kMaxFitSegments.
+// meets it, the fewest triangles of this family. Faces that are not certified at some N do not stop
+// the search: it follows the certified faces' largest bound, and ends with met = false (and the
+// faces that are not certified, with why) when some face is still not certified at the chosen N.
+// It stops at once when no face is certified, and at kMaxFitSegments.
 struct PartFit {
   bool met = false;
   std::string reason;          // why not met ("" when met)
@@ -158,7 +160,8 @@ struct PartFit {
     int segments = 0;
     uint64_t triangles = 0;
     bool certified = false;
-    double upper = 0.0;  // the part's certified upper bound (+inf when not certified)
+    double upper = 0.0;        // the part's certified upper bound (+inf when not certified)
+    double faces_upper = 0.0;  // the certified faces' largest upper bound (+inf when none is)
     double seconds = 0.0;
   };
   std::vector<Step> steps;
@@ -173,8 +176,8 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
                  const CertifyOptions& certify, const std::function<void(int, int)>& progress = {});
 
 // The fit as JSON: met, reason, target, segments, edge_tolerance, triangles, certified_error,
-// certified_lower_bound,
-// steps [{segments, triangles, certified, upper, seconds}], seconds, and the chosen mesh's
+// certified_lower_bound, certified_faces_error,
+// steps [{segments, triangles, certified, upper, certified_faces_upper, seconds}], seconds, and the chosen mesh's
 // part_run_json under "part".
 nlohmann::json part_fit_json(const PartFit& fit);
 
