@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 namespace sagitta::app {
 
@@ -55,8 +56,8 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     const PartCertificate& c = run.certificate;
     const double upper = c.all_certified ? c.distance.hausdorff.upper : kInf;
     const double faces_upper = c.faces_certified > 0 ? c.certified_faces_upper : kInf;
-    fit.steps.push_back(
-        {segments, run.part.mesh.triangles.size(), c.all_certified, upper, faces_upper, step.seconds()});
+    fit.steps.push_back({segments, run.part.mesh.triangles.size(), c.all_certified, upper, faces_upper,
+                         c.distance.hausdorff.lower, step.seconds()});
     return faces_upper <= target;
   };
   const auto finish = [&](int segments, PartRun&& run) {
@@ -73,6 +74,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   // Doubling until met (or no face can be certified, or the cap); `lo` is the largest N known to fail.
   int lo = 0, n = 1;
   PartRun run;
+  std::vector<int> previous_uncertified;
   while (true) {
     if (attempt(n, run)) break;
     if (run.certificate.faces_certified == 0) {
@@ -80,6 +82,19 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
       return finish(n, std::move(run));
     }
     lo = n;
+    // The same faces not certified at two doublings in a row: their reasons do not depend on N (a
+    // p-curve with no exact Bézier form), so the fit cannot be met and doubling on would only cost
+    // time.
+    std::vector<int> uncertified;
+    for (const FaceCertificate& f : run.certificate.faces) {
+      if (!f.certified) uncertified.push_back(f.face);
+    }
+    if (!uncertified.empty() && uncertified == previous_uncertified) {
+      fit.reason = "cannot be certified at " + std::to_string(n / 2) + " or " + std::to_string(n) +
+                   " segments: " + uncertified_faces(run);
+      return finish(n, std::move(run));
+    }
+    previous_uncertified = std::move(uncertified);
     if (n == kMaxFitSegments) {
       fit.reason = "not met at " + std::to_string(n) + " segments per patch side (certified error " +
                    std::to_string(fit.steps.back().faces_upper) +
@@ -125,6 +140,7 @@ nlohmann::json part_fit_json(const PartFit& fit) {
                      {"certified", s.certified},
                      {"upper", number_or_null(s.upper)},
                      {"certified_faces_upper", number_or_null(s.faces_upper)},
+                     {"lower", s.lower},
                      {"seconds", s.seconds}});
   }
   j["steps"] = steps;

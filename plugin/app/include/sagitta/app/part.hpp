@@ -146,9 +146,10 @@ nlohmann::json part_report_entry(const std::string& path, const std::string& nam
 // The certified error of the part falls as N grows (both the triangles' and the slivers' terms);
 // N is doubled until the certificate meets the target, then bisected down to the smallest N that
 // meets it, the fewest triangles of this family. Faces that are not certified at some N do not stop
-// the search: it follows the certified faces' largest bound, and ends with met = false (and the
-// faces that are not certified, with why) when some face is still not certified at the chosen N.
-// It stops at once when no face is certified, and at kMaxFitSegments.
+// the search at once: it follows the certified faces' largest bound, and ends with met = false (and
+// the faces that are not certified, with why) when some face is still not certified at the chosen N.
+// It stops at once when no face is certified, when the same faces are not certified at two
+// doublings in a row (their reasons do not depend on N), and at kMaxFitSegments.
 struct PartFit {
   bool met = false;
   std::string reason;          // why not met ("" when met)
@@ -162,6 +163,7 @@ struct PartFit {
     bool certified = false;
     double upper = 0.0;        // the part's certified upper bound (+inf when not certified)
     double faces_upper = 0.0;  // the certified faces' largest upper bound (+inf when none is)
+    double lower = 0.0;        // the part's certified lower bound (every face's)
     double seconds = 0.0;
   };
   std::vector<Step> steps;
@@ -177,8 +179,8 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
 
 // The fit as JSON: met, reason, target, segments, edge_tolerance, triangles, certified_error,
 // certified_lower_bound, certified_faces_error,
-// steps [{segments, triangles, certified, upper, certified_faces_upper, seconds}], seconds, and the chosen mesh's
-// part_run_json under "part".
+// steps [{segments, triangles, certified, upper, certified_faces_upper, lower, seconds}], seconds, and the chosen
+// mesh's part_run_json under "part".
 nlohmann::json part_fit_json(const PartFit& fit);
 
 }  // namespace sagitta::app
