@@ -216,6 +216,19 @@ double polynomial_cross_bound(const BezierPatch& patch) {
   return cross;
 }
 
+using Net = std::vector<glm::dvec4>;  // homogeneous control points (w x, w y, w z, w), row-major in u
+
+Net homogeneous_net(const BezierPatch& patch) {
+  Net net;
+  for (int i = 0; i < patch.rows(); ++i) {
+    for (int j = 0; j < patch.cols(); ++j) {
+      const double w = patch.weight(i, j);
+      net.push_back(glm::dvec4(w * patch.at(i, j), w));
+    }
+  }
+  return net;
+}
+
 // The Gram bound of one (sub-)patch whose parameters span span_u x span_v of the face's (U, V),
 // before the rounding margin; `slack` is added to each control-net difference (a sub-net's rounding).
 Gram net_gram(const BezierPatch& patch, double span_u, double span_v, double slack) {
@@ -263,36 +276,24 @@ std::vector<Gram> patch_grams(const Model& model, const Grid& g) {
 // homogeneous net, both ends), and a bound on the rounding of its control points (weighted).
 BezierPatch sub_patch(const BezierPatch& patch, double s0, double s1, double t0, double t1, double& rounding) {
   const int rows = patch.rows(), cols = patch.cols();
-  std::vector<glm::dvec4> h(static_cast<size_t>(rows * cols));
+  Net h = homogeneous_net(patch);
   double size = 0.0, wmax = 0.0;
-  for (int i = 0; i < rows; ++i) {
-    for (int j = 0; j < cols; ++j) {
-      const double w = patch.weight(i, j);
-      h[static_cast<size_t>(i * cols + j)] = glm::dvec4(w * patch.at(i, j), w);
-      const Vec3& q = patch.at(i, j);
-      size = std::max({size, std::abs(q.x), std::abs(q.y), std::abs(q.z)});
-      wmax = std::max(wmax, w);
-    }
-  }
-  // One line of n points restricted to [a, b]: the right part at a, then the left part at the
-  // rescaled b.
+  for (const Vec3& q : patch.points) size = std::max({size, std::abs(q.x), std::abs(q.y), std::abs(q.z)});
+  for (const glm::dvec4& q : h) wmax = std::max(wmax, q.w);
+  // One line of n points restricted to [a, b]: de Casteljau at a leaves line[k] = the right part's
+  // control point k, then de Casteljau of that at the rescaled b gives the left part's.
   const auto restrict_line = [](std::vector<glm::dvec4>& line, double a, double b) {
     const size_t n = line.size();
     for (size_t level = 1; level < n; ++level) {
       for (size_t k = 0; k + level < n; ++k) line[k] = (1.0 - a) * line[k] + a * line[k + 1];
     }
-    // line[k] now holds the right part's point k counted from its end: reorder.
-    std::vector<glm::dvec4> right(n);
-    for (size_t k = 0; k < n; ++k) right[k] = line[k];
-    // De Casteljau above leaves right[k] = b_k^{n-1-k}(a) for the points from k: that is the right
-    // part's control point k.
     const double c = a < 1.0 ? (b - a) / (1.0 - a) : 0.0;
-    std::vector<glm::dvec4> left(n), work = right;
+    std::vector<glm::dvec4> left(n);
     for (size_t level = 0; level < n; ++level) {
-      left[level] = work[0];
-      for (size_t k = 0; k + 1 < n - level; ++k) work[k] = (1.0 - c) * work[k] + c * work[k + 1];
+      left[level] = line[0];
+      for (size_t k = 0; k + 1 < n - level; ++k) line[k] = (1.0 - c) * line[k] + c * line[k + 1];
     }
-    line = left;
+    line = std::move(left);
   };
   std::vector<glm::dvec4> line;
   for (int j = 0; j < cols; ++j) {  // along u
@@ -559,19 +560,6 @@ void raise_lower_on_curves(const occt::PartFace& f, const Tessellation& mesh, Di
 //     the popped box's bound is the answer).
 namespace sliver {
 
-using Net = std::vector<glm::dvec4>;  // homogeneous control points (w x, w y, w z, w), row-major in u
-
-Net homogeneous_net(const BezierPatch& patch) {
-  Net net;
-  for (int i = 0; i < patch.rows(); ++i) {
-    for (int j = 0; j < patch.cols(); ++j) {
-      const double w = patch.weight(i, j);
-      net.push_back(glm::dvec4(w * patch.at(i, j), w));
-    }
-  }
-  return net;
-}
-
 // The halves of a net along u (axis 0) or v (axis 1), by de Casteljau at 1/2.
 std::pair<Net, Net> halve(const Net& net, int rows, int cols, int axis) {
   Net low(net.size()), high(net.size());
@@ -696,7 +684,7 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
   }
   std::sort(candidates.begin(), candidates.end(), larger);
 
-  // The rounding of sub-nets (halvings average homogeneous points; 4000 boxes are < 64 halvings
+  // The rounding of sub-nets (halvings average homogeneous points; kNodes boxes are < 64 halvings
   // deep) and of the hull's box, through the weights' spread.
   double patch_size = 0.0, spread = 1.0;
   for (const BezierPatch& patch : model.patches) {
