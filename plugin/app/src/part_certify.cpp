@@ -647,6 +647,7 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
     size_t chord;
     Vec2 edge_mid;  // metric: the midpoint of the triangle's edge on the chord
     Vec2 inward;    // metric: from there towards the triangle's third corner
+    std::array<Vec2, 3> corners;  // metric: the triangle's corners at a, b and the third
   };
   std::vector<Candidate> candidates;
   for (size_t k = 0; k < f.chords.size(); ++k) {
@@ -672,7 +673,10 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
     double bulge = 0.0;
     for (const Vec2& q : band.trace) bulge = std::abs(side(q)) > std::abs(bulge) ? side(q) : bulge;
     if (bulge * side(w) <= 0.0) continue;
-    candidates.push_back({k, m * (edge_mid + shift), w - m * (edge_mid + shift)});
+    candidates.push_back({k,
+                          m * (edge_mid + shift),
+                          w - m * (edge_mid + shift),
+                          {m * (corner_uv[t][at_a] + shift), m * (corner_uv[t][at_b] + shift), w}});
   }
   constexpr size_t kCandidates = 24;
   const auto larger = [&](const Candidate& x, const Candidate& y) {
@@ -713,6 +717,12 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
     const double reach = glm::length(cand.inward);
     if (!(reach > 0.0) || !(glm::length(cand.edge_mid - mid) <= 1e-3 * r)) continue;
     const Vec2 point = cand.edge_mid + std::min(0.49 * r, 0.5 * reach) / reach * cand.inward;
+    // Its other two edges may be shared with neighbours matched within the tiling's tolerance: c
+    // keeps clear of them too (so no neighbour's triangle covers it as well).
+    const auto& tc = cand.corners;
+    if (!(segment_distance(point, tc[0], tc[2]) >= 1e-6 * range &&
+          segment_distance(point, tc[1], tc[2]) >= 1e-6 * range))
+      continue;
     bool outside = false, decided = true;  // indicator of P at c is 1
     for (const Band& band : bands) {
       const double to_chord = segment_distance(point, band.a, band.b);
