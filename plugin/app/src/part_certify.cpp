@@ -645,8 +645,7 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
   // Candidates: chords whose curve bulges to the side of the triangle on them, largest deviation first.
   struct Candidate {
     size_t chord;
-    Vec2 edge_mid;  // metric: the midpoint of the triangle's edge on the chord
-    Vec2 inward;    // metric: from there towards the triangle's third corner
+    Vec2 edge_mid;                // metric: the midpoint of the triangle's edge on the chord
     std::array<Vec2, 3> corners;  // metric: the triangle's corners at a, b and the third
   };
   std::vector<Candidate> candidates;
@@ -668,15 +667,13 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
     const Vec2 chord_mid = 0.5 * (c.uv_a + c.uv_b), edge_mid = 0.5 * (corner_uv[t][at_a] + corner_uv[t][at_b]);
     const Vec2 shift = (chord_mid - edge_mid) - periodic_difference(g, chord_mid - edge_mid);
     const Band& band = bands[k];
-    const Vec2 mid = 0.5 * (band.a + band.b), w = m * (corner_uv[t][third] + shift), along = band.b - band.a;
+    const Vec2 w = m * (corner_uv[t][third] + shift), along = band.b - band.a;
     const auto side = [&](const Vec2& x) { return along.x * (x.y - band.a.y) - along.y * (x.x - band.a.x); };
     double bulge = 0.0;
     for (const Vec2& q : band.trace) bulge = std::abs(side(q)) > std::abs(bulge) ? side(q) : bulge;
     if (bulge * side(w) <= 0.0) continue;
-    candidates.push_back({k,
-                          m * (edge_mid + shift),
-                          w - m * (edge_mid + shift),
-                          {m * (corner_uv[t][at_a] + shift), m * (corner_uv[t][at_b] + shift), w}});
+    candidates.push_back(
+        {k, m * (edge_mid + shift), {m * (corner_uv[t][at_a] + shift), m * (corner_uv[t][at_b] + shift), w}});
   }
   constexpr size_t kCandidates = 24;
   const auto larger = [&](const Candidate& x, const Candidate& y) {
@@ -714,9 +711,10 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
     if (!(r > 1e-9 * range)) continue;
     // 2. c on the triangle's median from its edge's midpoint (the chord's, up to the tiling's
     // matching tolerance), inside N and strictly inside the triangle.
-    const double reach = glm::length(cand.inward);
+    const Vec2 inward = cand.corners[2] - cand.edge_mid;  // towards the triangle's third corner
+    const double reach = glm::length(inward);
     if (!(reach > 0.0) || !(glm::length(cand.edge_mid - mid) <= 1e-3 * r)) continue;
-    const Vec2 point = cand.edge_mid + std::min(0.49 * r, 0.5 * reach) / reach * cand.inward;
+    const Vec2 point = cand.edge_mid + std::min(0.49 * r, 0.5 * reach) / reach * inward;
     // Its other two edges may be shared with neighbours matched within the tiling's tolerance: c
     // keeps clear of them too (so no neighbour's triangle covers it as well).
     const auto& tc = cand.corners;

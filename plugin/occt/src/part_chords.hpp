@@ -36,9 +36,10 @@ struct ParameterMap {
 // With `trace`: also a finer polyline along the same curve piece, from a_uv to b_uv in (U, V), and a
 // proven bound (same metric) such that the curve's sub-arc between consecutive points lies within
 // it of the segment between them. Sub-arcs are halved (de Casteljau, no further OCCT call) until
-// each bound is at most 1/32 of the chord's deviation (or 8 halvings per Bézier piece); a curve
-// within the straight-curve floor of its chord (1e-9 of its length) is traced by the chord itself. Left with the
-// two end points and +infinity when the deviation is not proven.
+// each bound is at most 1/32 of the chord's deviation (or 8 halvings per Bézier piece). A curve
+// within the straight-curve floor of its chord (1e-9 of its length), or through a non-identity
+// map, is traced by the chord itself (its deviation); left with the two end points and +infinity
+// when the deviation is not proven.
 struct ChordTrace {
   std::vector<Vec2> points;
   double deviation = std::numeric_limits<double>::infinity();

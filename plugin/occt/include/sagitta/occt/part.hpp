@@ -46,9 +46,9 @@ struct BoundaryChord {
   std::array<Vec3, 3> curve_points{};
   double curve_point_error = 0.0;
   // A finer polyline along the same trimming curve, from uv_a to uv_b in (U, V): the curve's piece
-  // between consecutive points lies within trace_deviation (metric as `deviation`)
-  // of the segment between them (about 1/32 of `deviation`). It decides which side of the curve a point of a sliver
-  // lies on (the certificate's lower bounds, docs/VALIDATION.md).
+  // between consecutive points lies within trace_deviation (metric as `deviation`; about 1/32 of
+  // it, or the chord alone on re-parametrised faces) of the segment between them. It decides which
+  // side of the curve a point of a sliver lies on (the certificate's lower bounds, VALIDATION.md).
   std::vector<Vec2> trace;
   double trace_deviation = std::numeric_limits<double>::infinity();
 };
