@@ -3,6 +3,7 @@
 #include <glm/geometric.hpp>
 
 #include <cmath>
+#include <type_traits>
 
 namespace sagitta {
 
@@ -49,7 +50,9 @@ namespace {
 using H = std::array<double, 4>;
 
 // De Casteljau on d + 1 homogeneous points (overwritten); returns value and derivative d/dt.
-void curve_with_derivative(H* pts, int d, double t, H& value, H& derivative) {
+// `Degree` is int, or std::integral_constant for the low degrees (the same operations, unrolled).
+template <class Degree>
+void curve_with_derivative(H* pts, Degree d, double t, H& value, H& derivative) {
   for (int r = 1; r < d; ++r) {
     for (int k = 0; k <= d - r; ++k) {
       for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
@@ -84,9 +87,11 @@ Vec3 de_casteljau_curve(const std::vector<Vec3>& points, const std::vector<doubl
   return project(pts[0]);
 }
 
-SurfacePointEval evaluate_with_derivatives(const BezierPatch& patch, double u, double v) {
-  const int n = patch.degree_u, m = patch.degree_v;
-  if (n > kMaxDegree || m > kMaxDegree) throw InputError("degree above 25");
+namespace {
+
+// evaluate_with_derivatives for degrees n x m (int, or std::integral_constant: the same operations).
+template <class DegreeU, class DegreeV>
+SurfacePointEval evaluate_with_derivatives_impl(const BezierPatch& patch, DegreeU n, DegreeV m, double u, double v) {
   // On the stack: the certifier evaluates this in its innermost loops.
   H along_v[kMaxDegree + 1], rows[kMaxDegree + 1], drows[kMaxDegree + 1];
   for (int i = 0; i <= n; ++i) {
@@ -105,6 +110,18 @@ SurfacePointEval evaluate_with_derivatives(const BezierPatch& patch, double u, d
   e.du = project_derivative(h, hu);
   e.dv = project_derivative(h, hv);
   return e;
+}
+
+}  // namespace
+
+SurfacePointEval evaluate_with_derivatives(const BezierPatch& patch, double u, double v) {
+  const int n = patch.degree_u, m = patch.degree_v;
+  if (n > kMaxDegree || m > kMaxDegree) throw InputError("degree above 25");
+  using Two = std::integral_constant<int, 2>;
+  using Three = std::integral_constant<int, 3>;
+  if (n == 3 && m == 3) return evaluate_with_derivatives_impl(patch, Three{}, Three{}, u, v);
+  if (n == 2 && m == 2) return evaluate_with_derivatives_impl(patch, Two{}, Two{}, u, v);
+  return evaluate_with_derivatives_impl(patch, n, m, u, v);
 }
 
 namespace detail {

@@ -11,8 +11,8 @@ tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 check() { if eval "$2"; then passed=$((passed+1)); else echo "FAIL: $1"; sed 's/^/  stderr: /' "$tmp/err" 2>/dev/null; fail=$((fail+1)); fi; }
 one_line() { [ "$(wc -l < "$tmp/err")" = 1 ]; }
 
-# --max-seconds: validating the default model at level 6 takes about 5 s on two cores.
-$SAGITTA validate --level 6 --max-seconds 0.3 --json "$tmp/v.json" >/dev/null 2>"$tmp/err"; rc=$?
+# --max-seconds: validating the default model at level 8 takes about 5 s on two cores.
+$SAGITTA validate --level 8 --max-seconds 0.3 --json "$tmp/v.json" >/dev/null 2>"$tmp/err"; rc=$?
 check "validate --max-seconds: exit 2 (got $rc)" "[ $rc = 2 ]"
 check "validate --max-seconds: one line naming the budget" "one_line && grep -qF 'sagitta: time budget exhausted (--max-seconds 0.3) during ' $tmp/err"
 check "validate --max-seconds: no JSON written" "[ ! -e $tmp/v.json ]"
@@ -20,7 +20,7 @@ $SAGITTA tessellate --level 9 --max-seconds 0.01 --out "$tmp/t.obj" >/dev/null 2
 check "tessellate --max-seconds: exit 2 (got $rc), no mesh" "[ $rc = 2 ] && one_line && grep -qF 'time budget exhausted' $tmp/err && [ ! -e $tmp/t.obj ]"
 
 # Ctrl-C: the same work, interrupted after half a second, stops with one line and exit 2.
-$SAGITTA validate --level 6 --json "$tmp/v.json" >/dev/null 2>"$tmp/err" &
+$SAGITTA validate --level 8 --json "$tmp/v.json" >/dev/null 2>"$tmp/err" &
 pid=$!
 sleep 0.5
 kill -INT $pid

@@ -15,14 +15,15 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <limits>
 #include <map>
-#include <tuple>
-#include <unordered_map>
 #include <numeric>
+#include <tuple>
+#include <type_traits>
+#include <unordered_map>
 #include <vector>
 
 namespace sagitta {
@@ -65,7 +66,7 @@ struct MaxNorm {
 };
 double norm(const Vec2& v) { return glm::length(v); }
 
-H lerp(const H& a, const H& b, double t) {
+[[gnu::always_inline]] inline H lerp(const H& a, const H& b, double t) {
   const double s = 1.0 - t;
   return {s * a[0] + t * b[0], s * a[1] + t * b[1], s * a[2] + t * b[2], s * a[3] + t * b[3]};
 }
@@ -217,7 +218,7 @@ struct Scratch {
 
 // One de Casteljau level with argument t from points src[0 .. count] into dst[0 .. count - 1]
 // (dst may be src).
-void casteljau_level(const H* src, H* dst, int count, double t) {
+[[gnu::always_inline]] inline void casteljau_level(const H* src, H* dst, int count, double t) {
   for (int i = 0; i < count; ++i) dst[i] = lerp(src[i], src[i + 1], t);
 }
 
@@ -225,7 +226,7 @@ void casteljau_level(const H* src, H* dst, int count, double t) {
 // the order of Triples(d), into out[stride * k] (k the triple's position). Each value is the
 // de Casteljau evaluation with the arguments in that order; the levels of a shared prefix (x0^a0,
 // then x0^a0 x1^a1) are computed once, so every value is bit for bit the plain evaluation's.
-void blossom_all(const H* pts, int d, const double x[3], H* out, size_t stride) {
+void blossom_all_any(const H* pts, int d, const double x[3], H* out, size_t stride) {
   H w0[kMaxDegree + 1], w1[kMaxDegree + 1], w2[kMaxDegree + 1];
   size_t k = 0;
   const H* prefix0 = pts;  // after x0^a0
@@ -241,9 +242,54 @@ void blossom_all(const H* pts, int d, const double x[3], H* out, size_t stride) 
   }
 }
 
+// blossom_all_any for a degree D known at compile time: the same operations in the same order, on
+// local arrays that the compiler unrolls and keeps in registers.
+template <int D>
+[[gnu::always_inline]] inline void blossom_all_fixed(const H* pts, const double x[3], H* out, size_t stride) {
+  std::array<H, D + 1> p0;
+#pragma GCC unroll 8
+  for (int i = 0; i <= D; ++i) p0[i] = pts[i];
+  size_t k = 0;
+#pragma GCC unroll 8
+  for (int a0 = 0; a0 <= D; ++a0) {
+    if (a0 > 0) {
+#pragma GCC unroll 8
+      for (int i = 0; i < D + 1 - a0; ++i) p0[i] = lerp(p0[i], p0[i + 1], x[0]);
+    }
+    std::array<H, D + 1> p1 = p0;
+#pragma GCC unroll 8
+    for (int a1 = 0; a0 + a1 <= D; ++a1) {
+      if (a1 > 0) {
+#pragma GCC unroll 8
+        for (int i = 0; i < D + 1 - a0 - a1; ++i) p1[i] = lerp(p1[i], p1[i + 1], x[1]);
+      }
+      std::array<H, D + 1> p2 = p1;
+#pragma GCC unroll 8
+      for (int level = a0 + a1 + 1; level <= D; ++level) {
+#pragma GCC unroll 8
+        for (int i = 0; i < D + 1 - level; ++i) p2[i] = lerp(p2[i], p2[i + 1], x[2]);
+      }
+      out[stride * k++] = p2[0];
+    }
+  }
+}
+
+[[gnu::always_inline]] inline void blossom_all(const H* pts, int d, const double x[3], H* out, size_t stride) {
+  switch (d) {
+    case 1:
+      return blossom_all_fixed<1>(pts, x, out, stride);
+    case 2:
+      return blossom_all_fixed<2>(pts, x, out, stride);
+    case 3:
+      return blossom_all_fixed<3>(pts, x, out, stride);
+    default:
+      return blossom_all_any(pts, d, x, out, stride);
+  }
+}
+
 // u-blossom of every column for each u-triple, then the v-blossom of those for each (u-triple,
 // v-triple), into s.r.
-void blossom(const PatchData& P, const Vec2 q[3], Scratch& s) {
+[[gnu::always_inline]] inline void blossom(const PatchData& P, const Vec2 q[3], Scratch& s) {
   const int n = P.n, m = P.m;
   const size_t nu = s.tu.list.size(), nv = s.tv.list.size();
   const double xu[3] = {q[0].x, q[1].x, q[2].x}, xv[3] = {q[0].y, q[1].y, q[2].y};
@@ -257,7 +303,7 @@ void blossom(const PatchData& P, const Vec2 q[3], Scratch& s) {
 
 // Triangular coefficients of degree n + m from the blossom values (into s.coef); returns the
 // smallest weight coefficient.
-double triangular_coefficients(Scratch& s) {
+[[gnu::always_inline]] inline double triangular_coefficients(Scratch& s) {
   double wmin_poly = kInf;
   for (size_t g = 0; g < s.tn.list.size(); ++g) {
     H acc{0, 0, 0, 0};
@@ -275,7 +321,16 @@ double triangular_coefficients(Scratch& s) {
 // blossoming. The tensor-product blossom with i copies of corner 0, j of corner 1 and k of corner 2
 // split into n u-arguments and m v-arguments (averaged over all splits, Vandermonde weights) gives
 // the triangular Bernstein coefficient c_ijk of the composition, exactly in exact arithmetic.
-double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scratch& s) {
+//
+// On x86-64 with GCC it is also compiled for AVX2 (a homogeneous point in one register instead of
+// two), with blossom() inlined, and picked at load time by the CPU; "fma" is not enabled, so no
+// multiply-add is fused and the bound is bit for bit the same on every CPU.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define SAGITTA_BOUND_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define SAGITTA_BOUND_CLONES
+#endif
+SAGITTA_BOUND_CLONES double composed_bound(const PatchData& P, const Vec2 q[3], const Vec3 X[3], Scratch& s) {
   const int n = P.n, m = P.m, N = n + m;
   s.prepare(n, m);
   if (s.coef_patch != &P || s.coef_q[0] != q[0] || s.coef_q[1] != q[1] || s.coef_q[2] != q[2]) {
@@ -387,9 +442,10 @@ Vec2 project(const BezierPatch& patch, const Vec3& x, Vec2 q) {
 
 Vec2 PatchData::project(const Vec3& x, Vec2 q) const { return project_shifted(shifted, x - patch->points[0], q); }
 
-// S(q): de_casteljau<double> (kernels/src/evaluate.cpp) on the stack, the same operations.
-Vec3 eval(const BezierPatch& patch, Vec2 q) {
-  const int n = patch.degree_u, m = patch.degree_v;
+// S(q): de_casteljau<double> (kernels/src/evaluate.cpp) on the stack, the same operations (the
+// degrees int, or std::integral_constant for bicubic and biquadratic patches: unrolled).
+template <class DegreeU, class DegreeV>
+Vec3 eval_impl(const BezierPatch& patch, DegreeU n, DegreeV m, Vec2 q) {
   const double u = q.x, v = q.y;
   H rowpts[kMaxDegree + 1], work[kMaxDegree + 1];
   for (int i = 0; i <= n; ++i) {
@@ -412,6 +468,15 @@ Vec3 eval(const BezierPatch& patch, Vec2 q) {
   }
   const H& h = rowpts[0];
   return Vec3(h[0] / h[3], h[1] / h[3], h[2] / h[3]);
+}
+
+Vec3 eval(const BezierPatch& patch, Vec2 q) {
+  const int n = patch.degree_u, m = patch.degree_v;
+  using Two = std::integral_constant<int, 2>;
+  using Three = std::integral_constant<int, 3>;
+  if (n == 3 && m == 3) return eval_impl(patch, Three{}, Three{}, q);
+  if (n == 2 && m == 2) return eval_impl(patch, Two{}, Two{}, q);
+  return eval_impl(patch, n, m, q);
 }
 
 // Distance from x to an axis-aligned box (0 inside).
@@ -649,7 +714,8 @@ void bound_surface_to_mesh(const PatchData& P, const LeafCorners& c, const std::
   }
 }
 
-// Refines one triangle; `tau` is the level below which a leaf is accepted.
+// Refines one triangle; `tau` is the level below which a leaf is accepted; `root_bound`, when
+// finite, is a proven bound on both directions over the whole triangle (the cheap bound).
 //
 // Leaves are refined largest bound first. A leaf that is not done is still kept as it is (not
 // refined) when refining it could change neither result:
@@ -663,7 +729,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
                                double tau, double target_ratio, int max_depth, Scratch& s, bool s2m_only = false,
                                const std::vector<std::array<Vec3, 3>>* s2m_targets = nullptr,
                                const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest = {},
-                               const OtherPatches& others = {}, bool own_uv_only = false) {
+                               const OtherPatches& others = {}, bool own_uv_only = false, double root_bound = kInf) {
   TriangleResult res;
   CornerCache corners;
   struct Evaluated {
@@ -676,6 +742,15 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
   const auto evaluate = [&](const Leaf& leaf) {
     budget::check("validation");
     ++res.leaves;
+    if (leaf.depth == 0 && root_bound > tau && root_bound < kInf && max_depth > 0) {
+      // root_bound is proven for both directions over the whole triangle and is above tau, so the
+      // triangle is split; the corner-matched bounds are not computed for it (at the root, whose
+      // corners are mesh vertices, they come out about the same). Its children compute them.
+      Evaluated e{leaf, {}, root_bound};
+      e.b.m2s = s2m_only ? 0.0 : root_bound;
+      e.b.s2m = root_bound;
+      return e;
+    }
     LeafCorners c;
     for (int i = 0; i < 3; ++i) {
       const Vec3& b = leaf.b[i];
@@ -1426,7 +1501,7 @@ std::vector<TriangleResult> refine_triangles(const Refinement& rf, const Estimat
         results[t] = refine_triangle(rf.pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], triangle_corners(mesh, t),
                                      rf.tau, options.target_ratio, options.max_depth, s, false, nullptr, nearest,
                                      OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]},
-                                     options.in_domain && !options.domain_contains_patches);
+                                     options.in_domain && !options.domain_contains_patches, rf.cheap[t]);
       }
       if (results[t].m2s_est < est.value[t]) {
         results[t].m2s_est = est.value[t];
