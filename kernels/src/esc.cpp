@@ -104,7 +104,7 @@ struct PatchOutput {
   std::vector<SurfacePoint> surface_points;
   std::vector<Triangle> triangles;
   std::vector<std::array<Vec2, 3>> uv;
-  std::vector<std::vector<uint32_t>> strips;
+  StripList strips;
   uint64_t degenerate = 0;
   std::vector<uint32_t> local_id;  // final id minus the patch's base for each own vertex; UINT32_MAX unused
   uint32_t local_used = 0;
@@ -274,8 +274,9 @@ void mark_sides(const EscInput& in, const PatchState& ps) {
 }
 
 // The surface on the whole lattice, one u-contraction per lattice row (as the uniform scheme):
-// the same numbers PatchEvaluator::evaluate gives, at a fraction of its cost.
-void evaluate_lattice(const PatchState& ps) {
+// the same numbers PatchEvaluator::evaluate gives, at a fraction of its cost. The partials (for
+// normals) only when `partials`; otherwise only the positions are set.
+void evaluate_lattice(const PatchState& ps, bool partials) {
   const BezierPatch& patch = ps.patch;
   const Lattice& lat = ps.lat;
   const int na = ps.na, mb = ps.mb;
@@ -291,6 +292,14 @@ void evaluate_lattice(const PatchState& ps) {
   std::array<double, 4> row[kMaxDegree + 1], drow[kMaxDegree + 1];
   for (int a = 0; a <= na; ++a) {
     eval.basis_row(du, lat.u(a), a_row, da_row);
+    if (!partials) {
+      eval.contract_u_position(a_row, row);
+      for (int b = 0; b <= mb; ++b) {
+        ev[static_cast<size_t>(lat.index(a, b))].position =
+            eval.finish_position(row, &bv[static_cast<size_t>(b * (dv + 1))]);
+      }
+      continue;
+    }
     eval.contract_u(a_row, da_row, row, drow);
     for (int b = 0; b <= mb; ++b) {
       ev[static_cast<size_t>(lat.index(a, b))] =
@@ -532,7 +541,7 @@ void zip_rows(const Lattice& lat, const std::vector<Node>& upper, const std::vec
       ++di;
     }
   }
-  if (emitted > 0) out.strips.push_back(strip);
+  if (emitted > 0) out.strips.push_back(strip.begin(), strip.end());
 }
 
 // The strips and triangles of every coarse triangle, band by band from the apex to the base.
@@ -571,9 +580,7 @@ void mark_used(PatchOutput& out) {
   for (const Triangle& t : out.triangles) {
     for (uint32_t id : t) mark(id);
   }
-  for (const std::vector<uint32_t>& st : out.strips) {
-    for (uint32_t id : st) mark(id);
-  }
+  for (uint32_t id : out.strips.indices()) mark(id);
   for (uint32_t& r : out.local_id) {
     if (r == 0) r = out.local_used++;
   }
@@ -594,14 +601,16 @@ Counts tessellate_patch(const EscInput& in, size_t p, Scratch& sc, PatchOutput& 
   for (Side side : kAllSides) ps.collapsed[static_cast<int>(side)] = in.topology.side(ps.pid, side).collapsed;
 
   mark_sides(in, ps);
-  evaluate_lattice(ps);
+  evaluate_lattice(ps, in.params.normals);
   Counts counts = decide_coarse_edges(in, ps);
   force_collapsed_corners(P, ps, counts);
   fill_rows(P, ps);
 
   out.triangles.reserve(static_cast<size_t>(2 * lat.n * lat.m * P * P));
   if (in.params.surface_data) out.uv.reserve(out.triangles.capacity());
-  out.strips.reserve(static_cast<size_t>(2 * lat.n * lat.m * P));
+  // Each band's strip: its two rows (at most P + 2 vertices in all) plus one repeat per step.
+  out.strips.reserve(static_cast<size_t>(2 * lat.n * lat.m * P),
+                     static_cast<size_t>(2 * lat.n * lat.m * P * (2 * P + 4)));
   number_vertices(in, ps, out);
   build_strips(in, ps, out);
   mark_used(out);
@@ -610,7 +619,7 @@ Counts tessellate_patch(const EscInput& in, size_t p, Scratch& sc, PatchOutput& 
 
 // Where each patch's output goes in the result (per patch, with one past the end).
 struct Offsets {
-  std::vector<uint64_t> tri, strip, vertex;
+  std::vector<uint64_t> tri, strip, strip_index, vertex;
 };
 
 // Final ids of the side vertices: only those some patch uses, in layout order; UINT32_MAX unused.
@@ -648,10 +657,12 @@ void copy_patch(const EscParams& params, const std::vector<uint32_t>& remap, con
       result.triangle_uv[at.tri[p] + t] = o.uv[t];
     }
   }
-  for (size_t st = 0; st < o.strips.size(); ++st) {
-    for (uint32_t& id : o.strips[st]) id = final_id(id);
-    result.strips[at.strip[p] + st] = std::move(o.strips[st]);
-  }
+  const std::vector<uint32_t>& ids = o.strips.indices();
+  uint32_t* strip_ids = result.strips.mutable_indices() + at.strip_index[p];
+  for (size_t k = 0; k < ids.size(); ++k) strip_ids[k] = final_id(ids[k]);
+  const std::vector<uint64_t>& ends = o.strips.offsets();
+  uint64_t* strip_ends = result.strips.mutable_offsets() + at.strip[p];
+  for (size_t st = 1; st < ends.size(); ++st) strip_ends[st] = at.strip_index[p] + ends[st];
   o = PatchOutput();
 }
 
@@ -667,11 +678,13 @@ Tessellation assemble(const EscParams& params, const Sides& sides, std::vector<P
   Offsets at;
   at.tri.assign(np + 1, 0);
   at.strip.assign(np + 1, 0);
+  at.strip_index.assign(np + 1, 0);
   at.vertex.assign(np + 1, used);
   for (size_t p = 0; p < np; ++p) {
     at.vertex[p + 1] = at.vertex[p] + outputs[p].local_used;
     at.tri[p + 1] = at.tri[p] + outputs[p].triangles.size();
     at.strip[p + 1] = at.strip[p] + outputs[p].strips.size();
+    at.strip_index[p + 1] = at.strip_index[p] + outputs[p].strips.indices().size();
     result.degenerate_triangles += outputs[p].degenerate;
   }
   used = at.vertex[np];
@@ -692,7 +705,7 @@ Tessellation assemble(const EscParams& params, const Sides& sides, std::vector<P
     if (params.surface_data) result.surface_points[r] = full.surface_points[id];
   });
   result.triangles.resize(triangles);
-  result.strips.resize(strips);
+  result.strips.resize(strips, at.strip_index[np]);
   if (params.surface_data) {
     result.triangle_patch.resize(triangles);
     result.triangle_uv.resize(triangles);

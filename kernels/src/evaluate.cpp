@@ -117,11 +117,7 @@ SurfacePointEval evaluate_with_derivatives_impl(const BezierPatch& patch, Degree
 SurfacePointEval evaluate_with_derivatives(const BezierPatch& patch, double u, double v) {
   const int n = patch.degree_u, m = patch.degree_v;
   if (n > kMaxDegree || m > kMaxDegree) throw InputError("degree above 25");
-  using Two = std::integral_constant<int, 2>;
-  using Three = std::integral_constant<int, 3>;
-  if (n == 3 && m == 3) return evaluate_with_derivatives_impl(patch, Three{}, Three{}, u, v);
-  if (n == 2 && m == 2) return evaluate_with_derivatives_impl(patch, Two{}, Two{}, u, v);
-  return evaluate_with_derivatives_impl(patch, n, m, u, v);
+  return with_low_degrees(n, m, [&](auto du, auto dv) { return evaluate_with_derivatives_impl(patch, du, dv, u, v); });
 }
 
 namespace detail {
@@ -225,6 +221,26 @@ void PatchEvaluator::contract_u(const double* a, const double* da, H* row, H* dr
     row[j] = r;
     drow[j] = dr;
   }
+}
+
+void PatchEvaluator::contract_u_position(const double* a, H* row) const {
+  const int cols = m_ + 1;
+  for (int j = 0; j <= m_; ++j) {
+    H r{0.0, 0.0, 0.0, 0.0};
+    for (int i = 0; i <= n_; ++i) {
+      const H& kij = k_[static_cast<size_t>(i * cols + j)];
+      for (int q = 0; q < 4; ++q) r[q] += a[i] * kij[q];
+    }
+    row[j] = r;
+  }
+}
+
+Vec3 PatchEvaluator::finish_position(const H* row, const double* b) const {
+  H h{0.0, 0.0, 0.0, 0.0};
+  for (int j = 0; j <= m_; ++j) {
+    for (int q = 0; q < 4; ++q) h[q] += b[j] * row[j][q];
+  }
+  return origin_ + project(h);
 }
 
 SurfacePointEval PatchEvaluator::finish(const H* row, const H* drow, const double* b, const double* db) const {

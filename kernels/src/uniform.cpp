@@ -156,6 +156,15 @@ void sample_interior(const PatchPass& pp) {
     for (int a = 1; a < n; ++a) {
       const double u = static_cast<double>(a) / n;
       eval.basis_row(du, u, a_row, da_row);
+      if (!pp.params.normals) {  // positions only: no partials to contract
+        eval.contract_u_position(a_row, row);
+        for (int b = 1; b < n; ++b) {
+          SurfacePointEval e;
+          e.position = eval.finish_position(row, &bv[static_cast<size_t>(b * (dv + 1))]);
+          pp.store_vertex(pp.vertex(a, b), e, u, static_cast<double>(b) / n);
+        }
+        continue;
+      }
       eval.contract_u(a_row, da_row, row, drow);
       for (int b = 1; b < n; ++b) {
         const SurfacePointEval e =

@@ -226,7 +226,7 @@ struct Scratch {
 // the order of Triples(d), into out[stride * k] (k the triple's position). Each value is the
 // de Casteljau evaluation with the arguments in that order; the levels of a shared prefix (x0^a0,
 // then x0^a0 x1^a1) are computed once, so every value is bit for bit the plain evaluation's.
-void blossom_all_any(const H* pts, int d, const double x[3], H* out, size_t stride) {
+[[gnu::always_inline]] inline void blossom_all_any(const H* pts, int d, const double x[3], H* out, size_t stride) {
   H w0[kMaxDegree + 1], w1[kMaxDegree + 1], w2[kMaxDegree + 1];
   size_t k = 0;
   const H* prefix0 = pts;  // after x0^a0
@@ -443,7 +443,7 @@ Vec2 project(const BezierPatch& patch, const Vec3& x, Vec2 q) {
 Vec2 PatchData::project(const Vec3& x, Vec2 q) const { return project_shifted(shifted, x - patch->points[0], q); }
 
 // S(q): de_casteljau<double> (kernels/src/evaluate.cpp) on the stack, the same operations (the
-// degrees int, or std::integral_constant for bicubic and biquadratic patches: unrolled).
+// degrees int, or std::integral_constant for degrees 1 to 3: unrolled).
 template <class DegreeU, class DegreeV>
 Vec3 eval_impl(const BezierPatch& patch, DegreeU n, DegreeV m, Vec2 q) {
   const double u = q.x, v = q.y;
@@ -472,11 +472,7 @@ Vec3 eval_impl(const BezierPatch& patch, DegreeU n, DegreeV m, Vec2 q) {
 
 Vec3 eval(const BezierPatch& patch, Vec2 q) {
   const int n = patch.degree_u, m = patch.degree_v;
-  using Two = std::integral_constant<int, 2>;
-  using Three = std::integral_constant<int, 3>;
-  if (n == 3 && m == 3) return eval_impl(patch, Three{}, Three{}, q);
-  if (n == 2 && m == 2) return eval_impl(patch, Two{}, Two{}, q);
-  return eval_impl(patch, n, m, q);
+  return with_low_degrees(n, m, [&](auto du, auto dv) { return eval_impl(patch, du, dv, q); });
 }
 
 // Distance from x to an axis-aligned box (0 inside).

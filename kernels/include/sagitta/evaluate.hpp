@@ -5,6 +5,7 @@
 #include "sagitta/patch.hpp"
 
 #include <array>
+#include <type_traits>
 #include <vector>
 
 namespace sagitta {
@@ -62,6 +63,11 @@ class PatchEvaluator {
   SurfacePointEval finish(const std::array<double, 4>* row, const std::array<double, 4>* drow, const double* b,
                           const double* db) const;
 
+  // The same two steps for the position only (callers that need no partials): the same
+  // operations as contract_u's `row` and finish's position, so the same bits, at a third of the cost.
+  void contract_u_position(const double* a, std::array<double, 4>* row) const;
+  Vec3 finish_position(const std::array<double, 4>* row, const double* b) const;
+
   // Convenience: full evaluation at one (u, v).
   SurfacePointEval evaluate(double u, double v) const;
   Vec3 position(double u, double v) const { return evaluate(u, v).position; }
@@ -74,6 +80,37 @@ class PatchEvaluator {
 };
 
 }  // namespace detail
+
+// f(du, dv) with the degrees as std::integral_constant when both are 1 to 3 (so loops over them
+// unroll), as int otherwise: the same function, the same operations.
+template <class F>
+decltype(auto) with_low_degrees(int n, int m, F&& f) {
+  using One = std::integral_constant<int, 1>;
+  using Two = std::integral_constant<int, 2>;
+  using Three = std::integral_constant<int, 3>;
+  const auto second = [&](auto du) -> decltype(f(One{}, One{})) {
+    switch (m) {
+      case 1:
+        return f(du, One{});
+      case 2:
+        return f(du, Two{});
+      case 3:
+        return f(du, Three{});
+      default:
+        return f(n, m);
+    }
+  };
+  switch (n) {
+    case 1:
+      return second(One{});
+    case 2:
+      return second(Two{});
+    case 3:
+      return second(Three{});
+    default:
+      return f(n, m);
+  }
+}
 
 // Binomial coefficient C(n, k) as a double (exact for n <= 60).
 double binomial(int n, int k);
