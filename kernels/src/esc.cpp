@@ -119,6 +119,7 @@ struct Scratch {
   std::vector<Node> upper;
   std::vector<Node> lower;
   std::vector<uint32_t> strip;
+  std::vector<uint32_t> side_ids;
 };
 
 // Throws InputError, saying why, for parameters outside their ranges or a topology of another model.
@@ -221,6 +222,10 @@ struct PatchState {
   int na, mb;         // the last lattice index along u and along v
   bool collapsed[4];  // which sides of this patch collapse to a point
   Scratch& sc;
+  // Set by number_vertices: no side collapses and the side points' ids are pairwise distinct
+  // (no side shares its curve with another side of the patch), so no pattern triangle can repeat
+  // an id.
+  mutable bool distinct_side_ids = false;
 
   uint8_t& mask(int a, int b) const { return sc.mask[static_cast<size_t>(lat.index(a, b))]; }
   bool inserted(int a, int b) const { return mask(a, b) != 0; }
@@ -419,6 +424,21 @@ void number_vertices(const EscInput& in, const PatchState& ps, PatchOutput& out)
     ids[static_cast<size_t>(lat.index(k, 0))] = side_vertex(layout, topology, pid, Side::kV0, k);
     ids[static_cast<size_t>(lat.index(k, mb))] = side_vertex(layout, topology, pid, Side::kV1, k);
   }
+  ps.distinct_side_ids = false;
+  if (!ps.collapsed[0] && !ps.collapsed[1] && !ps.collapsed[2] && !ps.collapsed[3]) {
+    std::vector<uint32_t>& side_ids = ps.sc.side_ids;
+    side_ids.clear();
+    for (int k = 0; k <= mb; ++k) {
+      side_ids.push_back(ids[static_cast<size_t>(lat.index(0, k))]);
+      side_ids.push_back(ids[static_cast<size_t>(lat.index(na, k))]);
+    }
+    for (int k = 1; k < na; ++k) {
+      side_ids.push_back(ids[static_cast<size_t>(lat.index(k, 0))]);
+      side_ids.push_back(ids[static_cast<size_t>(lat.index(k, mb))]);
+    }
+    std::sort(side_ids.begin(), side_ids.end());
+    ps.distinct_side_ids = std::adjacent_find(side_ids.begin(), side_ids.end()) == side_ids.end();
+  }
   for (int a = 1; a < na; ++a) {
     for (int b = 1; b < mb; ++b) {
       const size_t s = static_cast<size_t>(lat.index(a, b));
@@ -450,14 +470,17 @@ struct CoarseTriangle {
 // end point is kept at its own lattice point: a VV taken from the apex or the far corner
 // would be the same vertex at another lattice point, and the zipper, placing it there,
 // fanned one triangle from it in two strips (the same triangle twice).
-void build_row(const PatchState& ps, const CoarseTriangle& ct, int k, std::vector<Node>& row) {
+// Returns whether the row is complete: all k + 1 points inserted, none substituted or left out.
+bool build_row(const PatchState& ps, const CoarseTriangle& ct, int k, std::vector<Node>& row) {
   const int P = ct.P;
   row.clear();
+  bool complete = true;
   for (int c = 0; c <= k; ++c) {
     int a, b;
     ct.point(k, c, a, b);
     const double pos = k == 0 ? 0.0 : static_cast<double>(c) / k;
     if (!ps.inserted(a, b) && !ps.on_collapsed_side(a, b)) {
+      complete = false;
       if (c != 0 && c != k) continue;  // only base-row candidates can be missing here
       const bool left = c == 0;
       for (int d = 1; d <= P; ++d) {
@@ -476,6 +499,7 @@ void build_row(const PatchState& ps, const CoarseTriangle& ct, int k, std::vecto
     }
     row.push_back({ps.sc.ids[static_cast<size_t>(ps.lat.index(a, b))], a, b, pos});
   }
+  return complete;
 }
 
 // Whether row k of the coarse triangle is in the pattern: the apex and the base always are, a row
@@ -486,6 +510,31 @@ bool row_present(const PatchState& ps, const CoarseTriangle& ct, int k) {
   ct.point(k, 0, a0, b0);
   ct.point(k, k, a1, b1);
   return ps.inserted(a0, b0) || ps.inserted(a1, b1);
+}
+
+// zip_rows for a regular band: rows k - 1 and k both complete (every node at its own lattice point,
+// at positions c / (k - 1) and c / k) on a patch without collapsed sides (all ids distinct). There
+// the zipper alternates, lower row first, never repeats a vertex and never flips a triangle, so
+// this writes the same strip (lower 0, upper 0, lower 1, upper 1, ..., upper k-1, lower k) and the
+// same triangles in the same order without its tests.
+void zip_regular_band(const Lattice& lat, const std::vector<Node>& upper, const std::vector<Node>& lower,
+                      bool surface_data, PatchOutput& out) {
+  const size_t k = upper.size();
+  const auto uv = [&lat](const Node& n) { return Vec2(lat.u(n.a), lat.v(n.b)); };
+  const auto emit = [&](const Node& p, const Node& q, const Node& r) {
+    out.triangles.push_back({p.id, q.id, r.id});
+    if (surface_data) out.uv.push_back({uv(p), uv(q), uv(r)});
+  };
+  for (size_t c = 0; c < k; ++c) {
+    emit(lower[c], upper[c], lower[c + 1]);
+    if (c + 1 < k) emit(lower[c + 1], upper[c], upper[c + 1]);
+  }
+  uint32_t* strip = out.strips.append(2 * k + 1);
+  for (size_t c = 0; c < k; ++c) {
+    strip[2 * c] = lower[c].id;
+    strip[2 * c + 1] = upper[c].id;
+  }
+  strip[2 * k] = lower[k].id;
 }
 
 // Zip the two rows into one strip: advance along the row whose next vertex comes first
@@ -553,12 +602,19 @@ void build_strips(const EscInput& in, const PatchState& ps, PatchOutput& out) {
     for (int j = 0; j < lat.m; ++j) {
       for (int tri = 0; tri < 2; ++tri) {
         const CoarseTriangle ct{in.P, tri, i, j};
-        build_row(ps, ct, 0, upper);
+        bool upper_complete = build_row(ps, ct, 0, upper);
+        int upper_k = 0;
         for (int k = 1; k <= in.P; ++k) {
           if (!row_present(ps, ct, k)) continue;
-          build_row(ps, ct, k, lower);
-          zip_rows(lat, upper, lower, in.params.surface_data, ps.sc.strip, out);
+          const bool lower_complete = build_row(ps, ct, k, lower);
+          if (ps.distinct_side_ids && upper_complete && lower_complete && upper_k + 1 == k) {
+            zip_regular_band(lat, upper, lower, in.params.surface_data, out);
+          } else {
+            zip_rows(lat, upper, lower, in.params.surface_data, ps.sc.strip, out);
+          }
           std::swap(upper, lower);
+          upper_complete = lower_complete;
+          upper_k = k;
         }
       }
     }
@@ -577,9 +633,8 @@ void mark_used(PatchOutput& out) {
       out.side_ids.push_back(id);
     }
   };
-  for (const Triangle& t : out.triangles) {
-    for (uint32_t id : t) mark(id);
-  }
+  // Every triangle's corners are in its strip (the zipper writes each vertex it steps to), so the
+  // strips list every vertex used.
   for (uint32_t id : out.strips.indices()) mark(id);
   for (uint32_t& r : out.local_id) {
     if (r == 0) r = out.local_used++;

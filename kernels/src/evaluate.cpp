@@ -74,13 +74,22 @@ Vec3 project_derivative(const H& h, const H& dh) {
 }  // namespace
 
 Vec3 de_casteljau_curve(const std::vector<Vec3>& points, const std::vector<double>& weights, double t) {
-  std::vector<H> pts(points.size());
-  for (size_t k = 0; k < points.size(); ++k) {
+  // On the stack up to the largest degree (the boundary samples of every scheme come here).
+  H local[kMaxDegree + 1];
+  std::vector<H> heap;
+  H* pts = local;
+  if (points.size() > kMaxDegree + 1) {
+    heap.resize(points.size());
+    pts = heap.data();
+  }
+  const size_t count = points.size();
+  if (count == 0) return Vec3(std::nan(""));
+  for (size_t k = 0; k < count; ++k) {
     const double w = weights.empty() ? 1.0 : weights[k];
     pts[k] = {w * points[k].x, w * points[k].y, w * points[k].z, w};
   }
-  for (size_t r = 1; r < pts.size(); ++r) {
-    for (size_t k = 0; k + r < pts.size(); ++k) {
+  for (size_t r = 1; r < count; ++r) {
+    for (size_t k = 0; k + r < count; ++k) {
       for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
     }
   }
@@ -233,14 +242,6 @@ void PatchEvaluator::contract_u_position(const double* a, H* row) const {
     }
     row[j] = r;
   }
-}
-
-Vec3 PatchEvaluator::finish_position(const H* row, const double* b) const {
-  H h{0.0, 0.0, 0.0, 0.0};
-  for (int j = 0; j <= m_; ++j) {
-    for (int q = 0; q < 4; ++q) h[q] += b[j] * row[j][q];
-  }
-  return origin_ + project(h);
 }
 
 SurfacePointEval PatchEvaluator::finish(const H* row, const H* drow, const double* b, const double* db) const {

@@ -66,7 +66,13 @@ class PatchEvaluator {
   // The same two steps for the position only (callers that need no partials): the same
   // operations as contract_u's `row` and finish's position, so the same bits, at a third of the cost.
   void contract_u_position(const double* a, std::array<double, 4>* row) const;
-  Vec3 finish_position(const std::array<double, 4>* row, const double* b) const;
+  Vec3 finish_position(const std::array<double, 4>* row, const double* b) const {
+    std::array<double, 4> h{0.0, 0.0, 0.0, 0.0};
+    for (int j = 0; j <= m_; ++j) {
+      for (int q = 0; q < 4; ++q) h[q] += b[j] * row[j][q];
+    }
+    return origin_ + Vec3(h[0], h[1], h[2]) / h[3];
+  }
 
   // Convenience: full evaluation at one (u, v).
   SurfacePointEval evaluate(double u, double v) const;

@@ -63,6 +63,12 @@ class StripList {
     offsets_.push_back(indices_.size());
   }
   void push_back(const std::vector<uint32_t>& strip) { push_back(strip.begin(), strip.end()); }
+  // Appends one strip of n ids, written through the pointer returned (valid until the list changes).
+  uint32_t* append(size_t n) {
+    indices_.resize(indices_.size() + n);
+    offsets_.push_back(indices_.size());
+    return indices_.data() + (indices_.size() - n);
+  }
   // All vertex ids and the strip offsets (offsets()[0] == 0, one more than size()).
   const std::vector<uint32_t>& indices() const { return indices_; }
   const std::vector<uint64_t>& offsets() const { return offsets_; }
