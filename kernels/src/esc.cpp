@@ -222,10 +222,6 @@ struct PatchState {
   int na, mb;         // the last lattice index along u and along v
   bool collapsed[4];  // which sides of this patch collapse to a point
   Scratch& sc;
-  // Set by number_vertices: no side collapses and the side points' ids are pairwise distinct
-  // (no side shares its curve with another side of the patch), so no pattern triangle can repeat
-  // an id.
-  mutable bool distinct_side_ids = false;
 
   uint8_t& mask(int a, int b) const { return sc.mask[static_cast<size_t>(lat.index(a, b))]; }
   bool inserted(int a, int b) const { return mask(a, b) != 0; }
@@ -406,8 +402,10 @@ void fill_rows(int P, const PatchState& ps) {
 }
 
 // Vertex ids on the lattice: side points take their shared layout id, inserted points strictly
-// inside the patch become the patch's own vertices (kLocal ids, in (a, b) order).
-void number_vertices(const EscInput& in, const PatchState& ps, PatchOutput& out) {
+// inside the patch become the patch's own vertices (kLocal ids, in (a, b) order). Returns whether
+// no side collapses and the side points' ids are pairwise distinct (no side shares its curve with
+// another side of the patch), so that no pattern triangle can repeat an id.
+bool number_vertices(const EscInput& in, const PatchState& ps, PatchOutput& out) {
   const BoundaryLayout& layout = in.sides.layout;
   const Topology& topology = in.topology;
   const EscParams& params = in.params;
@@ -424,7 +422,7 @@ void number_vertices(const EscInput& in, const PatchState& ps, PatchOutput& out)
     ids[static_cast<size_t>(lat.index(k, 0))] = side_vertex(layout, topology, pid, Side::kV0, k);
     ids[static_cast<size_t>(lat.index(k, mb))] = side_vertex(layout, topology, pid, Side::kV1, k);
   }
-  ps.distinct_side_ids = false;
+  bool distinct_side_ids = false;
   if (!ps.collapsed[0] && !ps.collapsed[1] && !ps.collapsed[2] && !ps.collapsed[3]) {
     std::vector<uint32_t>& side_ids = ps.sc.side_ids;
     side_ids.clear();
@@ -437,7 +435,7 @@ void number_vertices(const EscInput& in, const PatchState& ps, PatchOutput& out)
       side_ids.push_back(ids[static_cast<size_t>(lat.index(k, mb))]);
     }
     std::sort(side_ids.begin(), side_ids.end());
-    ps.distinct_side_ids = std::adjacent_find(side_ids.begin(), side_ids.end()) == side_ids.end();
+    distinct_side_ids = std::adjacent_find(side_ids.begin(), side_ids.end()) == side_ids.end();
   }
   for (int a = 1; a < na; ++a) {
     for (int b = 1; b < mb; ++b) {
@@ -455,6 +453,7 @@ void number_vertices(const EscInput& in, const PatchState& ps, PatchOutput& out)
       if (params.surface_data) out.surface_points.push_back({pid, u, v});
     }
   }
+  return distinct_side_ids;
 }
 
 // One coarse triangle: triangle `tri` (0 or 1) of cell (i, j), with P segments per coarse edge.
@@ -594,7 +593,8 @@ void zip_rows(const Lattice& lat, const std::vector<Node>& upper, const std::vec
 }
 
 // The strips and triangles of every coarse triangle, band by band from the apex to the base.
-void build_strips(const EscInput& in, const PatchState& ps, PatchOutput& out) {
+// `distinct_side_ids`: number_vertices' result (regular bands may skip the zipper's tests).
+void build_strips(const EscInput& in, const PatchState& ps, bool distinct_side_ids, PatchOutput& out) {
   const Lattice& lat = ps.lat;
   std::vector<Node>& upper = ps.sc.upper;
   std::vector<Node>& lower = ps.sc.lower;
@@ -607,7 +607,7 @@ void build_strips(const EscInput& in, const PatchState& ps, PatchOutput& out) {
         for (int k = 1; k <= in.P; ++k) {
           if (!row_present(ps, ct, k)) continue;
           const bool lower_complete = build_row(ps, ct, k, lower);
-          if (ps.distinct_side_ids && upper_complete && lower_complete && upper_k + 1 == k) {
+          if (distinct_side_ids && upper_complete && lower_complete && upper_k + 1 == k) {
             zip_regular_band(lat, upper, lower, in.params.surface_data, out);
           } else {
             zip_rows(lat, upper, lower, in.params.surface_data, ps.sc.strip, out);
@@ -663,11 +663,12 @@ Counts tessellate_patch(const EscInput& in, size_t p, Scratch& sc, PatchOutput& 
 
   out.triangles.reserve(static_cast<size_t>(2 * lat.n * lat.m * P * P));
   if (in.params.surface_data) out.uv.reserve(out.triangles.capacity());
-  // Each band's strip: its two rows (at most P + 2 vertices in all) plus one repeat per step.
+  // A coarse triangle's strips hold about P^2 + 2P ids (2k + 1 for band k, more where vertices are
+  // replicated); room for twice that.
   out.strips.reserve(static_cast<size_t>(2 * lat.n * lat.m * P),
                      static_cast<size_t>(2 * lat.n * lat.m * P * (2 * P + 4)));
-  number_vertices(in, ps, out);
-  build_strips(in, ps, out);
+  const bool distinct_side_ids = number_vertices(in, ps, out);
+  build_strips(in, ps, distinct_side_ids, out);
   mark_used(out);
   return counts;
 }
