@@ -196,22 +196,31 @@ Vec2 face_to_uv(const FaceGeometry& g, double u, double v) {
   double U = clamp(wu, ub.front(), ub.back()), V = clamp(wv, vb.front(), vb.back());
   if (g.converted.IsNull()) return Vec2(U + shift_u, V + shift_v);
   const gp_Pnt target = g.surface->Value(u, v);
+  // Newton's steps shrink quadratically until rounding takes over; a step near rounding level that
+  // no longer halves the previous one is noise (it would oscillate by an ulp for all 40 iterations).
+  const double range_u = ub.back() - ub.front(), range_v = vb.back() - vb.front();
+  double previous_step = std::numeric_limits<double>::infinity();
+  const Vec3 q = to_vec(target);
   for (int iteration = 0; iteration < 40; ++iteration) {
-    gp_Pnt p;
-    gp_Vec du, dv;
-    g.converted->D1(U, V, p, du, dv);
-    const gp_Vec r(target, p);
-    const double a = du.Dot(du), b = du.Dot(dv), c = dv.Dot(dv);
-    const double ru = r.Dot(du), rv = r.Dot(dv);
+    // The converted surface is the face's Bézier patches: evaluated there (de Casteljau), with the
+    // patch's local derivatives scaled to (U, V).
+    const auto [patch, st] = locate_patch(g, U, V);
+    const int i = patch / g.nv, j = patch % g.nv;
+    const SurfacePointEval e = evaluate_with_derivatives(g.patches[static_cast<size_t>(patch)], st.x, st.y);
+    const Vec3 du = e.du * ((g.reversed ? -1.0 : 1.0) / (ub[i + 1] - ub[i]));
+    const Vec3 dv = e.dv * (1.0 / (vb[j + 1] - vb[j]));
+    const Vec3 r = e.position - q;
+    const double a = glm::dot(du, du), b = glm::dot(du, dv), c = glm::dot(dv, dv);
+    const double ru = glm::dot(r, du), rv = glm::dot(r, dv);
     const double reg = 1e-12 * (a + c) + std::numeric_limits<double>::min();
     const double det = (a + reg) * (c + reg) - b * b;
     if (!(det > 0.0)) break;
     const double dU = -((c + reg) * ru - b * rv) / det, dV = -((a + reg) * rv - b * ru) / det;
     const double U1 = clamp(U + dU, ub.front(), ub.back()), V1 = clamp(V + dV, vb.front(), vb.back());
-    const bool converged = std::abs(U1 - U) <= 1e-15 * (ub.back() - ub.front()) &&
-                           std::abs(V1 - V) <= 1e-15 * (vb.back() - vb.front());
+    const double step = std::max(std::abs(U1 - U) / range_u, std::abs(V1 - V) / range_v);
     U = U1, V = V1;
-    if (converged) break;
+    if (step <= 1e-15 || (step <= 1e-12 && step >= 0.5 * previous_step)) break;
+    previous_step = step;
   }
   return Vec2(U + shift_u, V + shift_v);
 }

@@ -144,7 +144,10 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
   if (trace) *trace = ChordTrace{{a_uv, b_uv}, kInf};
   const Vec2 a = map.metric * a_uv, b = map.metric * b_uv;
   const double scale = std::max({std::abs(a.x), std::abs(a.y), std::abs(b.x), std::abs(b.y)}) + glm::length(b - a);
-  const Bounder bounder{map, a, b, 1e-9 * glm::length(b - a), map.identity ? 16 : 14};
+  // The map's own error is part of every hull bound through it and no split removes it: the floor
+  // is at least twice that (a chord on an iso-line would otherwise be split to the node budget).
+  const double map_error = map.identity ? 0.0 : map.to_uv_error * std::max(map.metric.x, map.metric.y);
+  const Bounder bounder{map, a, b, std::max(1e-9 * glm::length(b - a), 2.0 * map_error), map.identity ? 16 : 14};
   const double rounding = 1e-13 * scale;
   try {
     if (p0 == p1) {
