@@ -48,6 +48,7 @@ nlohmann::json part_json(const occt::PartMesh& part) {
                      {"solid", f.solid},
                      {"status", f.status},
                      {"reason", f.reason},
+                     {"segments", f.segments},
                      {"triangles", f.triangles},
                      {"scheme_triangles", f.scheme_triangles},
                      {"max_boundary_offset", f.max_boundary_offset}});

@@ -3,6 +3,7 @@
 #include "sagitta/app/json.hpp"
 #include "sagitta/app/part.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -39,29 +40,42 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   fit.edge_tolerance = 0.5 * target;
   SolidCheckOptions check_options;
   check_options.self_intersections = false;
-  // One tessellate-validate-certify step at N segments; true when the certified faces meet the
-  // target. The search follows the certified faces' largest upper bound (the part's when every face
-  // is certified): a face that is not certified at some N (a (U, V) triangle degenerate at a coarse
-  // N, a p-curve with no exact Bézier form at any N) does not stop it, but the fit is met only when
-  // every face is certified.
-  const auto attempt = [&](int segments, PartRun& run) {
+  // One tessellate-validate-certify step: N segments on every face (face_segments empty), or each
+  // face its own. True when the certified faces meet the target. The search follows the certified
+  // faces' largest upper bound (the part's when every face is certified): a face that is not
+  // certified at some N (a (U, V) triangle degenerate at a coarse N, a p-curve with no exact Bézier
+  // form at any N) does not stop it, but the fit is met only when every face is certified.
+  const auto attempt = [&](int segments, const std::vector<int>& face_segments, PartRun& run,
+                           double edge_tolerance = 0.0) {
     const Stopwatch step;
     if (progress) progress(static_cast<int>(fit.steps.size()) + 1, segments);
     SchemeSpec scheme;
     scheme.scheme = Scheme::kUniform;
     scheme.segments = segments;
-    run.part = mesher(part_options(scheme, fit.edge_tolerance));
+    if (!(edge_tolerance > 0.0)) edge_tolerance = fit.edge_tolerance;
+    occt::PartOptions options = part_options(scheme, edge_tolerance);
+    options.face_segments = face_segments;
+    run.part = mesher(options);
     run.validation = validate_part(run.part, check_options);
     run.certificate = certify_part(run.part, certify);
     const PartCertificate& c = run.certificate;
     const double upper = c.all_certified ? c.distance.hausdorff.upper : kInf;
     const double faces_upper = c.faces_certified > 0 ? c.certified_faces_upper : kInf;
     fit.steps.push_back({segments, run.part.mesh.triangles.size(), c.all_certified, upper, faces_upper,
-                         c.distance.hausdorff.lower, step.seconds()});
+                         c.distance.hausdorff.lower, step.seconds(), !face_segments.empty(), edge_tolerance});
     return faces_upper <= target;
   };
-  const auto finish = [&](int segments, PartRun&& run) {
+  // Face f of a run meets the target on its own: certified with an upper bound <= target.
+  const auto face_meets = [&](const PartRun& run, size_t f) {
+    const FaceCertificate& c = run.certificate.faces[f];
+    return c.certified && c.upper <= target;
+  };
+  const auto all_meet = [&](const PartRun& run) {
+    return run.certificate.all_certified && run.certificate.distance.hausdorff.upper <= target;
+  };
+  const auto finish = [&](int segments, std::vector<int> face_segments, PartRun&& run) {
     fit.segments = segments;
+    fit.face_segments = std::move(face_segments);
     fit.run = std::move(run);
     fit.seconds = clock.seconds();
     if (fit.reason.empty() && !fit.run.certificate.all_certified) {
@@ -71,17 +85,32 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     fit.met = fit.reason.empty();
     return fit;
   };
-  // Doubling until met (or no face can be certified, or the cap); `lo` is the largest N known to fail.
-  int lo = 0, n = 1;
+  // 1. Doubling one N for every face until the part meets the target, or every face has met it at
+  //    some N (or no face can be certified, or the cap). Per face: lo, the largest N known to fail,
+  //    and hi, the smallest N known to meet (0: none yet).
+  std::vector<int> lo, hi;
+  int n = 1;
   PartRun run;
   std::vector<int> previous_uncertified;
+  bool met = false;
   while (true) {
-    if (attempt(n, run)) break;
+    met = attempt(n, {}, run);
+    const size_t faces = run.certificate.faces.size();
+    lo.resize(faces, 0), hi.resize(faces, 0);
+    for (size_t f = 0; f < faces; ++f) {
+      if (hi[f] > 0) continue;
+      if (face_meets(run, f)) {
+        hi[f] = n;
+      } else {
+        lo[f] = n;
+      }
+    }
+    if (met) break;
     if (run.certificate.faces_certified == 0) {
       fit.reason = "cannot be certified: " + uncertified_faces(run);
-      return finish(n, std::move(run));
+      return finish(n, {}, std::move(run));
     }
-    lo = n;
+    if (std::all_of(hi.begin(), hi.end(), [](int h) { return h > 0; })) break;
     // The same faces not certified at two doublings in a row: their reasons do not depend on N (a
     // p-curve with no exact Bézier form), so the fit cannot be met and doubling on would only cost
     // time.
@@ -92,31 +121,89 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     if (!uncertified.empty() && uncertified == previous_uncertified) {
       fit.reason = "cannot be certified at " + std::to_string(n / 2) + " or " + std::to_string(n) +
                    " segments: " + uncertified_faces(run);
-      return finish(n, std::move(run));
+      return finish(n, {}, std::move(run));
     }
     previous_uncertified = std::move(uncertified);
     if (n == kMaxFitSegments) {
       fit.reason = "not met at " + std::to_string(n) + " segments per patch side (certified error " +
                    std::to_string(fit.steps.back().faces_upper) +
                    (run.certificate.all_certified ? ")" : " on the certified faces; " + uncertified_faces(run) + ")");
-      return finish(n, std::move(run));
+      return finish(n, {}, std::move(run));
     }
     n = std::min(2 * n, kMaxFitSegments);
   }
-  // Bisection between lo (fails) and n (meets).
-  int hi = n;
-  PartRun best = std::move(run);
-  while (hi - lo > 1) {
-    const int mid = lo + (hi - lo) / 2;
-    PartRun trial;
-    if (attempt(mid, trial)) {
-      hi = mid;
-      best = std::move(trial);
-    } else {
-      lo = mid;
+  // Met on the certified faces only, and some face was never certified: the fit cannot be met.
+  if (met && std::find(hi.begin(), hi.end(), 0) != hi.end()) return finish(n, {}, std::move(run));
+  // The best run that meets the target on every face (fewest triangles); the uniform one if it met.
+  const bool uniform_met = all_meet(run);
+  PartRun best;
+  std::vector<int> best_segments;
+  int best_n = n;
+  if (uniform_met) best = std::move(run);
+  const auto keep_if_better = [&](PartRun& trial, const std::vector<int>& segments) {
+    if (!all_meet(trial)) return;
+    if (!best.part.faces.empty() && best.part.mesh.triangles.size() <= trial.part.mesh.triangles.size()) return;
+    best = std::move(trial);
+    best_segments = segments;
+    if (!segments.empty()) best_n = *std::max_element(segments.begin(), segments.end());
+  };
+  // 2. Each face its own density: faces share their edges' samples with their neighbours, so a face
+  //    whose neighbours now take fewer segments may miss where it met before; it is doubled again.
+  //    3. Then every face's N is bisected between lo and hi at once. A face that fails at the N it
+  //    kept (its edges changed with its neighbours) is doubled. Every step's run is certified whole,
+  //    and only a run in which every face meets is kept.
+  std::vector<int> segments(hi.begin(), hi.end());
+  for (int step = 0; step < 16; ++step) {
+    std::vector<int> trial = segments;
+    bool bisecting = false;
+    for (size_t f = 0; f < trial.size(); ++f) {
+      if (hi[f] - lo[f] > 1) trial[f] = lo[f] + (hi[f] - lo[f]) / 2, bisecting = true;
     }
+    if (!bisecting && step > 0 && trial == best_segments) break;
+    // Every face at the uniform run's N: that run is already known.
+    if (!bisecting && uniform_met && std::all_of(trial.begin(), trial.end(), [&](int t) { return t == n; })) break;
+    PartRun per_face;
+    attempt(*std::max_element(trial.begin(), trial.end()), trial, per_face);
+    bool all = true;
+    for (size_t f = 0; f < trial.size(); ++f) {
+      const bool meets = face_meets(per_face, f);
+      all = all && meets;
+      if (trial[f] != hi[f]) {  // bisected
+        (meets ? hi[f] : lo[f]) = trial[f];
+      } else if (!meets) {  // kept at hi, missed with new neighbours
+        lo[f] = hi[f];
+        hi[f] = std::min(2 * hi[f], kMaxFitSegments);
+      }
+    }
+    keep_if_better(per_face, trial);
+    segments = hi;
+    if (!bisecting && all) break;
+    if (!bisecting && segments == trial) break;  // nothing left to change (faces at the cap)
   }
-  return finish(hi, std::move(best));
+  if (!best.part.faces.empty()) {
+    // 4. Coarser edges: the edge chord tolerance E / 2 is conservative (its chords are checked at
+    //    quarter points, the certificate measures the rest); with up to 2E the same face densities may
+    //    still meet the target with fewer edge samples. The coarsest tolerance that meets is kept.
+    for (double factor : {2.0, 1.4, 1.0, 0.75}) {
+      PartRun coarser;
+      const std::vector<int> face_segments = best_segments;
+      attempt(best_n, face_segments, coarser, factor * target);
+      if (!all_meet(coarser)) continue;
+      const bool fewer = coarser.part.mesh.triangles.size() < best.part.mesh.triangles.size();
+      keep_if_better(coarser, face_segments);
+      if (fewer) fit.edge_tolerance = factor * target;
+      break;
+    }
+    return finish(best_n, best_segments, std::move(best));
+  }
+  // No per-face run met every face and the uniform run did not either: the uniform doubling goes on.
+  while (n < kMaxFitSegments) {
+    n = std::min(2 * n, kMaxFitSegments);
+    if (attempt(n, {}, run) && run.certificate.all_certified) return finish(n, {}, std::move(run));
+  }
+  fit.reason = "not met at " + std::to_string(n) + " segments per patch side (certified error " +
+               std::to_string(fit.steps.back().faces_upper) + ")";
+  return finish(n, {}, std::move(run));
 }
 
 nlohmann::json part_fit_json(const PartFit& fit) {
@@ -126,6 +213,7 @@ nlohmann::json part_fit_json(const PartFit& fit) {
   j["target_error"] = fit.target;
   j["scheme"] = "uniform";
   j["segments"] = fit.segments;
+  if (!fit.face_segments.empty()) j["face_segments"] = fit.face_segments;
   j["edge_tolerance"] = fit.edge_tolerance;
   j["triangles"] = fit.run.part.mesh.triangles.size();
   j["certified"] = fit.run.certificate.all_certified;
@@ -141,7 +229,9 @@ nlohmann::json part_fit_json(const PartFit& fit) {
                      {"upper", number_or_null(s.upper)},
                      {"certified_faces_upper", number_or_null(s.faces_upper)},
                      {"lower", s.lower},
-                     {"seconds", s.seconds}});
+                     {"seconds", s.seconds},
+                     {"per_face", s.per_face},
+                     {"edge_tolerance", s.edge_tolerance}});
   }
   j["steps"] = steps;
   j["seconds"] = fit.seconds;

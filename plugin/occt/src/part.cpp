@@ -139,6 +139,7 @@ struct FaceGeometry {
   // shares across a closed surface's seam is listed at both sides.
   std::map<std::pair<double, double>, uint32_t> scheme_sides;
   int solid = -1;
+  int segments = 1;  // the scheme's segments per patch side on this face (ESC: 1, the edge density's unit)
 };
 
 double clamp(double x, double lo, double hi) { return std::min(std::max(x, lo), hi); }
@@ -359,6 +360,18 @@ int scheme_segments(const SchemeSpec& spec) {
   return 1;
 }
 
+// The scheme on face f: PartOptions::face_segments[f] segments per patch side where given (uniform).
+SchemeSpec face_scheme(const PartOptions& options, int f) {
+  SchemeSpec scheme = options.scheme;
+  if (scheme.scheme == Scheme::kUniform && f < static_cast<int>(options.face_segments.size()) &&
+      options.face_segments[static_cast<size_t>(f)] > 0) {
+    scheme.segments = options.face_segments[static_cast<size_t>(f)];
+    scheme.level = -1;
+    scheme.patch_levels.clear();
+  }
+  return scheme;
+}
+
 // The edge's p-curve on face g sampled at 33 points, in patch-grid units (a patch span is 1): how many
 // grid cells of the face the edge runs along.
 double grid_length(const FaceGeometry& g, const TopoDS_Edge& edge) {
@@ -556,11 +569,11 @@ EdgePlan plan_edge(const PartOptions& options, const ShapeIndex& x, const std::v
     break;
   }
   if (!owned) {  // the scheme's density on every face that uses the edge, and its turning
-    const int segs = scheme_segments(options.scheme);
-    int n = 1;
+    int n = 1, segs = 1;
     for (int f : faces) {
-      if (!geometry[f].patches.empty())
-        n = std::max(n, static_cast<int>(std::ceil(grid_length(geometry[f], edge) * segs - 1e-9)));
+      if (geometry[f].patches.empty()) continue;
+      segs = std::max(segs, geometry[f].segments);
+      n = std::max(n, static_cast<int>(std::ceil(grid_length(geometry[f], edge) * geometry[f].segments - 1e-9)));
     }
     if (curve) {
       const double turn = turning(*curve, first, last);
@@ -1218,6 +1231,9 @@ void check_scheme(const PartOptions& options, const std::string& name) {
   if (options.scheme.scheme == Scheme::kPn) {
     throw InputError(name + ": pn is a scheme for triangle meshes; tessellate the part with uniform or esc");
   }
+  for (int n : options.face_segments) {
+    if (n < 0 || n > 4096) throw InputError(name + ": segments per face must be in 0..4096, got " + std::to_string(n));
+  }
 }
 
 // The B-rep's vertices and every edge's samples into b.out (the first mesh vertices).
@@ -1315,6 +1331,8 @@ void add_face(PartBuilder& b, const FaceGeometry& g, const std::function<bool(Pa
   pf.name = g.report.name;
   pf.surface_type = g.report.surface_type;
   pf.trimmed = g.report.status == "trimmed";
+  // Our own uniform tessellation only (a foreign mesh's faces have no scheme).
+  pf.segments = b.options.scheme.scheme == Scheme::kUniform && !g.scheme.triangles.empty() ? g.segments : 0;
   pf.solid = g.solid;
   pf.status = "skipped";
   if (g.patches.empty()) {
@@ -1362,12 +1380,16 @@ double part_bytes(double triangles) { return 3.0 * tessellation_bytes(triangles,
 // Throws MemoryLimitExceeded (budget::check_memory) before any face is meshed when the whole part
 // (every face's scheme estimate, untrimmed: trimming only removes triangles) would exceed the limit.
 // Each face's scheme also guards its own size; this guards their sum.
-void check_part_memory(const std::vector<FaceGeometry>& geometry, const SchemeSpec& scheme, const std::string& name) {
+void check_part_memory(const std::vector<FaceGeometry>& geometry, const PartOptions& options, const std::string& name) {
   if (budget::max_bytes() <= 0.0) return;
-  Model faces;
-  for (const FaceGeometry& g : geometry) faces.patches.insert(faces.patches.end(), g.patches.begin(), g.patches.end());
-  if (faces.patches.empty()) return;
-  const double triangles = estimated_triangles(faces, scheme);
+  double triangles = 0.0;
+  for (const FaceGeometry& g : geometry) {
+    if (g.patches.empty()) continue;
+    Model face;
+    face.patches = g.patches;
+    triangles += estimated_triangles(face, face_scheme(options, g.report.face_index));
+  }
+  if (!(triangles > 0.0)) return;
   budget::check_memory(part_bytes(triangles),
                        name + ": meshing the part (about " + std::to_string(static_cast<uint64_t>(std::min(triangles, 1e19))) +
                            " triangles)",
@@ -1393,10 +1415,12 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
   out.model.name = name;
   const ShapeIndex x = index_shape(shape);
   std::vector<FaceGeometry> geometry = faces_geometry(x, name, options.cad);
-  check_part_memory(geometry, options.scheme, name);
+  check_part_memory(geometry, options, name);
   for (FaceGeometry& g : geometry) {
     budget::check("tessellating the part's faces");
-    tessellate_face_patches(g, options.scheme);
+    const SchemeSpec scheme = face_scheme(options, g.report.face_index);
+    g.segments = scheme_segments(scheme);
+    tessellate_face_patches(g, scheme);
   }
   std::vector<EdgePlan> plans;
   for (int e = 0; e < x.edges.Extent(); ++e) {

@@ -154,7 +154,10 @@ struct PartFit {
   bool met = false;
   std::string reason;          // why not met ("" when met)
   double target = 0.0;         // model units
-  int segments = 0;            // the chosen N (met), else the last tried
+  int segments = 0;            // the chosen N (met), else the last tried; the largest face's when per face
+  // Segments per patch side of each face (by face index) when the faces took their own densities;
+  // empty when every face took `segments`.
+  std::vector<int> face_segments;
   double edge_tolerance = 0.0;
   PartRun run;                 // the chosen mesh with its validation and certificate
   struct Step {
@@ -165,6 +168,8 @@ struct PartFit {
     double faces_upper = 0.0;  // the certified faces' largest upper bound (+inf when none is)
     double lower = 0.0;        // the part's certified lower bound (every face's)
     double seconds = 0.0;
+    bool per_face = false;  // each face its own N (segments is the largest)
+    double edge_tolerance = 0.0;
   };
   std::vector<Step> steps;
   double seconds = 0.0;

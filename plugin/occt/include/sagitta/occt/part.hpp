@@ -24,6 +24,10 @@ struct PartOptions {
   // > 0: every edge is split until each chord is within this distance of the edge's 3D curve
   // (sampled; issue "Certified whole parts" proves it), on top of the scheme's own density.
   double edge_tolerance = 0.0;
+  // uniform only: segments per patch side of each face (by face index, 0-based), overriding the
+  // scheme's level / segments where > 0 (the fit gives each face its own density). Shorter than the
+  // face count: the remaining faces take the scheme's.
+  std::vector<int> face_segments;
   CadOptions cad;
   // PartSolid::valid (BRepCheck_Analyzer) and ::volume (BRepGProp): OCCT's own facts about each
   // solid, for the reports; off, they stay false / 0 (they cost more than the tessellation on
@@ -64,6 +68,7 @@ struct PartFace {
   std::string reason;        // why skipped ("" when tessellated)
   int first_patch = -1;      // into PartMesh::model.patches
   int patch_count = 0;
+  int segments = 0;               // uniform: the scheme's segments per patch side on this face (0: esc)
   uint64_t triangles = 0;         // emitted triangles of the face
   uint64_t scheme_triangles = 0;  // of those, the scheme's own triangles kept unchanged
   uint64_t boundary_vertices = 0; // shared edge vertices on the face's loops
