@@ -200,7 +200,8 @@ def part_parameters(params):
     """The keyword arguments of _sagitta.mesh_part_brep for a feature's scheme parameters."""
     if params["scheme"] == "pn":
         raise SagittaError("pn is a scheme for triangle meshes; tessellate a part with uniform or esc")
-    return {k: v for k, v in params.items() if k in ("scheme", "level", "segments", "threshold", "edge_tolerance")}
+    return {k: v for k, v in params.items()
+            if k in ("scheme", "level", "segments", "threshold", "edge_tolerance", "face_segments")}
 
 
 def mesh_part(links, name, params):
@@ -443,6 +444,9 @@ class TessellationFeature:
         add("App::PropertyFloat", "EdgeTolerance", "Sagitta",
             "Whole parts: B-rep edges are split until their chords lie within this distance of the curve "
             "(model units; 0: the scheme's own density). Set by Fit")
+        add("App::PropertyIntegerList", "FaceSegments", "Sagitta",
+            "Whole parts, uniform: segments per patch side of each face (Face 1 first), instead of Segments "
+            "where > 0. Set by Fit (each face its own density); empty: Segments on every face")
         if "Scheme" not in existing:
             obj.Scheme = SCHEMES
         for kind, name, doc in STAT_PROPERTIES:
@@ -593,7 +597,7 @@ def apply_with_progress(obj, values, edit=True):
 
 
 # The parameters a user edits; the fit sets them too.
-PARAMETERS = ("Scheme", "Level", "Segments", "BaseLevel", "Threshold", "EdgeTolerance")
+PARAMETERS = ("Scheme", "Level", "Segments", "BaseLevel", "Threshold", "EdgeTolerance", "FaceSegments")
 NOT_VALIDATED = "not validated"
 
 
@@ -621,13 +625,18 @@ def scheme_parameters(obj):
         params["base_level"] = obj.BaseLevel
     if edge_tolerance > 0.0:  # whole parts only (part_parameters); patch models have no B-rep edges
         params["edge_tolerance"] = edge_tolerance
+    face_segments = list(getattr(obj, "FaceSegments", []))
+    if obj.Scheme == "uniform" and face_segments:  # whole parts only, as edge_tolerance
+        if any(n < 0 for n in face_segments):
+            raise SagittaError("FaceSegments must be >= 0, got %r" % (face_segments,))
+        params["face_segments"] = face_segments
     return params
 
 
 def tessellate_model(model, params):
     """Runs a scheme; invalid parameters become SagittaError with the library's message."""
     try:
-        return _sagitta.tessellate(model, **{k: v for k, v in params.items() if k != "edge_tolerance"})
+        return _sagitta.tessellate(model, **{k: v for k, v in params.items() if k not in ("edge_tolerance", "face_segments")})
     except (ValueError, MemoryError) as error:
         raise library_error(error)
 
@@ -1198,10 +1207,11 @@ def check_target_error(target_error):
 
 
 def fit_part_tessellation(obj, target_error):
-    """A whole part's fit (`sagitta fit PART`): uniform segments per patch side and an edge tolerance
-    of half the target, the fewest triangles whose certified error (every face) is <= target. Sets
-    Scheme uniform, Segments, EdgeTolerance and TargetError in one transaction; the recompute's mesh is
-    the one the fit certified (the mesher is deterministic). SagittaError, nothing changed, when not met."""
+    """A whole part's fit (`sagitta fit PART`, docs/FITTING.md): uniform segments per patch side on
+    each face and an edge tolerance, the fewest triangles whose certified error (every face) is <=
+    target. Sets Scheme uniform, Segments (the largest face's), FaceSegments, EdgeTolerance and
+    TargetError in one transaction; the recompute's mesh is the one the fit certified (the mesher is
+    deterministic). SagittaError, nothing changed, when not met."""
     text, label = part_brep_text(obj.Source), obj.Label
     depth = preferences()["max_depth"]
     set_library_memory_limit()
@@ -1215,7 +1225,7 @@ def fit_part_tessellation(obj, target_error):
     if not result["met"]:
         raise SagittaError("%s: the whole part did not meet the target %g: %s" % (label, target_error, result["reason"]))
     edit_tessellation(obj, Scheme="uniform", Segments=result["segments"], EdgeTolerance=result["edge_tolerance"],
-                      TargetError=target_error)
+                      FaceSegments=result.get("face_segments", []), TargetError=target_error)
     result["scheme"] = "uniform"
     return result
 

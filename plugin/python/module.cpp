@@ -603,14 +603,19 @@ void bind_part(py::module_& m) {
   m.def(
       "mesh_part_brep",
       [](const std::string& text, const std::string& name, const std::string& scheme, int level,
-         std::optional<int> segments, std::optional<double> threshold, double edge_tolerance) {
-        const occt::PartOptions options = part_options(scheme, level, segments, threshold, edge_tolerance);
+         std::optional<int> segments, std::optional<double> threshold, double edge_tolerance,
+         const std::vector<int>& face_segments) {
+        occt::PartOptions options = part_options(scheme, level, segments, threshold, edge_tolerance);
+        options.face_segments = face_segments;
         py::gil_scoped_release release;
         return occt::mesh_part_brep_string(text, name, options);
       },
       py::arg("brep_text"), py::arg("name"), py::arg("scheme") = "uniform", py::arg("level") = 2,
       py::arg("segments") = py::none(), py::arg("threshold") = py::none(), py::arg("edge_tolerance") = 0.0,
-      "mesh_part on a shape's BREP text (FreeCAD: shape.exportBrepToString()); `name` names it in messages");
+      py::arg("face_segments") = std::vector<int>{},
+      "mesh_part on a shape's BREP text (FreeCAD: shape.exportBrepToString()); `name` names it in messages; "
+      "face_segments (uniform): segments per patch side of each face by face index, overriding `segments` "
+      "where > 0 (fit_part_brep's choice)");
   m.def(
       "mesh_on_part_brep",
       [](const std::string& text, const std::string& name, const Tessellation& mesh) {
