@@ -1493,7 +1493,22 @@ std::vector<TriangleResult> refine_triangles(const Refinement& rf, const Estimat
         results[t].m2s = results[t].s2m = rf.cheap[t];
         results[t].leaves = 1;
       } else {
-        const auto nearest = [&rf, t](const Vec3& p, std::array<Vec3, 3>& tri) { return rf.nearest_around(t, p, tri); };
+        // With a restricted domain (a face of a part, cut along its patch grid) the triangles are
+        // few and large, and a surface point over t may lie nearest to a triangle beyond t's ring
+        // (an analytic face's re-parametrised circle over a coarse triangle): the mesh's tree is
+        // asked too, and the nearer candidate kept.
+        const bool search_tree = static_cast<bool>(options.in_domain);
+        const auto nearest = [&rf, t, search_tree](const Vec3& p, std::array<Vec3, 3>& tri) {
+          if (!search_tree) return rf.nearest_around(t, p, tri);
+          std::array<Vec3, 3> ring{}, any{};
+          const bool r = rf.nearest_around(t, p, ring), a = rf.nearest(p, any);
+          if (!r && !a) return false;
+          const auto distance = [&p](const std::array<Vec3, 3>& T) {
+            return norm(p - closest_on_triangle(p, T[0], T[1], T[2]));
+          };
+          tri = !a || (r && distance(ring) <= distance(any)) ? ring : any;
+          return true;
+        };
         results[t] = refine_triangle(rf.pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], triangle_corners(mesh, t),
                                      rf.tau, options.target_ratio, options.max_depth, s, false, nullptr, nearest,
                                      OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]},

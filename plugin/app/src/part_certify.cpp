@@ -834,9 +834,12 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   }
   CertifyOptions cut = options;
   // Pieces whose corners sit on the edges' curves (off the surface by the B-rep's tolerance) cannot
-  // refine below that offset; past 4^5 leaves the bound no longer moved on the shared parts (measured:
-  // bug32745 18 s at depth 8, 0.3 s at depth 5, the same intervals), so the loops route stops there.
-  cut.max_depth = std::min(cut.max_depth, 5);
+  // refine below that offset, so the loops route stops at 4^7 leaves per piece (depth 8 took 18 s on
+  // bug32745 at uniform densities for the same intervals). Depth 5 was too shallow for the few large
+  // triangles of a coarse face (the fit's per-face densities): cones and cylinders stayed at
+  // upper / lower 1.1-1.3 there, within 1.05 at depth 7 (OCC2368, r103ec; certificates at level 2
+  // 0.02-0.26 s either way).
+  cut.max_depth = std::min(cut.max_depth, 7);
   // Pieces of exact (planar) triangles whose corners sit on the edges' curves carry the edges'
   // tolerance: refining them below it would only exhaust the depth budget.
   if (cut.refine_floor <= 0.0) {

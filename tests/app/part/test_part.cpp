@@ -243,6 +243,31 @@ TEST(AppPart, UntrimmedFacesInTheLoopsRouteAreTight) {
   expect_face_bounds_hold(part, cert);
 }
 
+// The same at the fit's coarsest density: one segment per patch side with edges split to E / 2
+// (E = 1e-3 of the diagonal), so a few long triangles span a cone's re-parametrised circle and a
+// surface point over one lies nearest to a triangle beyond its ring. Before the tree search the
+// cones' surface->mesh bounds stayed at 2.2-3.0 times the lower bound.
+TEST(AppPart, CoarseUntrimmedFacesInTheLoopsRouteAreTight) {
+  const std::string path = shared_data("cad/step/OCC2368.stp");
+  SAGITTA_REQUIRE_DATA(path);
+  SchemeSpec spec;
+  spec.segments = 1;
+  const double target = 1e-3 * model_box(mesh_part(path, 0).model).diagonal();
+  const occt::PartMesh part = occt::mesh_part_file(path, app::part_options(spec, 0.5 * target));
+  const app::PartCertificate cert = app::certify_part(part);
+  int faces = 0;
+  for (const app::FaceCertificate& f : cert.faces) {
+    const occt::PartFace& face = part.faces[static_cast<size_t>(f.face)];
+    if (face.trimmed || f.route != "loops") continue;
+    ASSERT_TRUE(f.certified) << face.name << ": " << f.reason;
+    ++faces;
+    EXPECT_LE(f.hausdorff.upper, 1.07 * f.hausdorff.lower)
+        << face.name << " (" << face.surface_type << ") [" << f.hausdorff.lower << ", " << f.hausdorff.upper << "]";
+  }
+  EXPECT_GE(faces, 10);
+  expect_face_bounds_hold(part, cert);
+}
+
 // fit_part when a face is not certified (planted: a trimmed face's first chord deviation made
 // unproven). Only at one segment per side: the search goes on and meets the target with every face
 // certified. At every density: it stops after the second step (the same face twice), met = false,
