@@ -27,6 +27,31 @@ std::string uncertified_faces(const PartRun& run) {
   return text;
 }
 
+// Per face (by index): the faces that share a mesh vertex with it (an edge or a B-rep vertex).
+std::vector<std::vector<int>> face_neighbours(const occt::PartMesh& part) {
+  std::vector<std::vector<int>> by_vertex(part.mesh.positions.size());
+  for (size_t t = 0; t < part.mesh.triangles.size(); ++t) {
+    const int face = static_cast<int>(part.triangle_face[t]);
+    for (uint32_t v : part.mesh.triangles[t]) {
+      std::vector<int>& faces = by_vertex[v];
+      if (std::find(faces.begin(), faces.end(), face) == faces.end()) faces.push_back(face);
+    }
+  }
+  std::vector<std::vector<int>> neighbours(part.faces.size());
+  for (const std::vector<int>& faces : by_vertex) {
+    for (int a : faces) {
+      for (int b : faces) {
+        if (a != b) neighbours[static_cast<size_t>(a)].push_back(b);
+      }
+    }
+  }
+  for (std::vector<int>& list : neighbours) {
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+  }
+  return neighbours;
+}
+
 }  // namespace
 
 PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& mesher, double target,
@@ -139,6 +164,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   PartRun best;
   std::vector<int> best_segments;
   int best_n = n;
+  const std::vector<std::vector<int>> neighbours = face_neighbours(run.part);
   if (uniform_met) best = std::move(run);
   const auto keep_if_better = [&](PartRun& trial, const std::vector<int>& segments) {
     if (!all_meet(trial)) return;
@@ -147,11 +173,13 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     best_segments = segments;
     if (!segments.empty()) best_n = *std::max_element(segments.begin(), segments.end());
   };
-  // 2. Each face its own density: faces share their edges' samples with their neighbours, so a face
-  //    whose neighbours now take fewer segments may miss where it met before; it is doubled again.
-  //    3. Then every face's N is bisected between lo and hi at once. A face that fails at the N it
-  //    kept (its edges changed with its neighbours) is doubled. Every step's run is certified whole,
-  //    and only a run in which every face meets is kept.
+  // 2. Each face its own density. Every face's N is bisected between its lo and hi, all faces at
+  //    once, one whole-part run per round; only runs in which every face meets are kept. Faces share
+  //    their edges' samples, and an edge owned by an untrimmed neighbour takes that neighbour's scheme
+  //    vertices: a face kept at its hi can miss once its neighbours are coarser (a trimmed sphere's
+  //    chords through its re-parametrisation). Its neighbours then get at least its N (a floor),
+  //    and when they already have it, the face itself is doubled.
+  std::vector<int> floor(hi.size(), 0);
   std::vector<int> segments(hi.begin(), hi.end());
   for (int step = 0; step < 16; ++step) {
     std::vector<int> trial = segments;
@@ -170,10 +198,23 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
       all = all && meets;
       if (trial[f] != hi[f]) {  // bisected
         (meets ? hi[f] : lo[f]) = trial[f];
-      } else if (!meets) {  // kept at hi, missed with new neighbours
+        continue;
+      }
+      if (meets) continue;
+      // Kept at hi and missed: its neighbours are raised to its N, or, where they have it, itself.
+      bool raised = false;
+      for (int g : neighbours[f]) {
+        if (floor[static_cast<size_t>(g)] < trial[f]) floor[static_cast<size_t>(g)] = trial[f], raised = true;
+      }
+      if (!raised) {
         lo[f] = hi[f];
         hi[f] = std::min(2 * hi[f], kMaxFitSegments);
       }
+    }
+    // No bisection below a floor.
+    for (size_t g = 0; g < hi.size(); ++g) {
+      if (hi[g] < floor[g]) hi[g] = floor[g];
+      lo[g] = std::max(lo[g], floor[g] - 1);
     }
     keep_if_better(per_face, trial);
     segments = hi;
