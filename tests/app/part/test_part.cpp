@@ -300,7 +300,9 @@ TEST(AppPart, FitGoesOnPastAFaceNotCertifiedAtOneDensityOnly) {
   EXPECT_LE(once.run.certificate.distance.hausdorff.upper, target);
   // The smallest N: one segment fewer misses the target.
   for (const app::PartFit::Step& step : once.steps) {
-    if (!step.per_face && step.segments < once.segments) EXPECT_GT(step.faces_upper, target) << step.segments;
+    if (!step.per_face && step.segments < once.segments) {
+      EXPECT_GT(step.faces_upper, target) << step.segments;
+    }
   }
 
   const app::PartFit always = app::fit_part(mesher(true), target, CertifyOptions{});
