@@ -177,9 +177,9 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   //    once, one whole-part run per round; only runs in which every face meets are kept. Faces share
   //    their edges' samples, and an edge owned by an untrimmed neighbour takes that neighbour's scheme
   //    vertices: a face kept at its hi can miss once its neighbours are coarser (a trimmed sphere's
-  //    chords through its re-parametrisation). Its neighbours then get at least its N (a floor),
-  //    and when they already have it, the face itself is doubled.
-  std::vector<int> floor(hi.size(), 0);
+  //    chords through its re-parametrisation). Its neighbours then get at least its N, and when
+  //    they already have it, the face itself is doubled.
+  std::vector<int> at_least(hi.size(), 0);  // per face: the N its neighbours' misses asked for
   std::vector<int> segments(hi.begin(), hi.end());
   for (int step = 0; step < 16; ++step) {
     std::vector<int> trial = segments;
@@ -204,17 +204,17 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
       // Kept at hi and missed: its neighbours are raised to its N, or, where they have it, itself.
       bool raised = false;
       for (int g : neighbours[f]) {
-        if (floor[static_cast<size_t>(g)] < trial[f]) floor[static_cast<size_t>(g)] = trial[f], raised = true;
+        if (at_least[static_cast<size_t>(g)] < trial[f]) at_least[static_cast<size_t>(g)] = trial[f], raised = true;
       }
       if (!raised) {
         lo[f] = hi[f];
         hi[f] = std::min(2 * hi[f], kMaxFitSegments);
       }
     }
-    // No bisection below a floor.
+    // No bisection below at_least.
     for (size_t g = 0; g < hi.size(); ++g) {
-      if (hi[g] < floor[g]) hi[g] = floor[g];
-      lo[g] = std::max(lo[g], floor[g] - 1);
+      hi[g] = std::max(hi[g], at_least[g]);
+      lo[g] = std::max(lo[g], at_least[g] - 1);
     }
     keep_if_better(per_face, trial);
     segments = hi;
@@ -222,7 +222,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     if (!bisecting && segments == trial) break;  // nothing left to change (faces at the cap)
   }
   if (!best.part.faces.empty()) {
-    // 4. Coarser edges: the edge chord tolerance E / 2 is conservative (its chords are checked at
+    // 3. Coarser edges: the edge chord tolerance E / 2 is conservative (its chords are checked at
     //    quarter points, the certificate measures the rest); with up to 2E the same face densities may
     //    still meet the target with fewer edge samples. The coarsest tolerance that meets is kept.
     for (double factor : {2.0, 1.4, 1.0, 0.75}) {
