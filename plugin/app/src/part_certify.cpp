@@ -834,12 +834,15 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   }
   CertifyOptions cut = options;
   // Pieces whose corners sit on the edges' curves (off the surface by the B-rep's tolerance) cannot
-  // refine below that offset, so the loops route stops at 4^7 leaves per piece (depth 8 took 18 s on
-  // bug32745 at uniform densities for the same intervals). Depth 5 was too shallow for the few large
-  // triangles of a coarse face (the fit's per-face densities): cones and cylinders stayed at
-  // upper / lower 1.1-1.3 there, within 1.05 at depth 7 (OCC2368, r103ec; certificates at level 2
-  // 0.02-0.26 s either way).
-  cut.max_depth = std::min(cut.max_depth, 7);
+  // refine below that offset; past 4^5 leaves the bound no longer moved on the shared parts at
+  // uniform densities (bug32745 18 s at depth 8, 0.3 s at depth 5, the same intervals), so the loops
+  // route stops there first. A coarse face (the fit's per-face densities) has a few long triangles
+  // that need more: when leaves ran out of depth and the interval is wider than twice the boundary
+  // offset (which no refinement removes) and above a proven lower bound, the face is certified
+  // again to depth 7 (OCC2368's cones and cylinders at 1 segment per side: 1.1-1.3 -> within 1.05).
+  // Always depth 7 cost bearing.iges's BRepMesh mesh at 1e-3 of the diagonal 20 s instead of 1 s.
+  const int deep = std::min(cut.max_depth, 7);
+  cut.max_depth = std::min(cut.max_depth, 5);
   // Pieces of exact (planar) triangles whose corners sit on the edges' curves carry the edges'
   // tolerance: refining them below it would only exhaust the depth budget.
   if (cut.refine_floor <= 0.0) {
@@ -850,6 +853,13 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   // An untrimmed face is its patches whole: a triangle may be matched to its corners' projections.
   cut.domain_contains_patches = !f.trimmed;
   DistanceReport d = certify_distance(model, pieces.mesh, cut);
+  const double shallow_lower = std::max(d.mesh_to_surface.lower, d.surface_to_mesh.lower);
+  const double shallow_upper = std::max(d.mesh_to_surface.upper, d.surface_to_mesh_over_triangles);
+  if (deep > cut.max_depth && d.budget_exhausted > 0 && shallow_lower > 0.0 && shallow_upper > 1.05 * shallow_lower &&
+      shallow_upper - shallow_lower > 2.0 * f.max_boundary_offset) {
+    cut.max_depth = deep;
+    d = certify_distance(model, pieces.mesh, cut);
+  }
 
   // Per triangle (and collapsed triangle): its pieces' bound, plus the rounding of the pieces' corners
   // (affine combinations).
