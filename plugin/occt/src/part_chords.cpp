@@ -152,8 +152,7 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
   try {
     if (p0 == p1) {
       const gp_Pnt2d q = pcurve->Value(p0);
-      const double d = segment_distance(bounder.mapped(Vec2(q.X(), q.Y())), a, b) +
-                       map.to_uv_error * std::max(map.metric.x, map.metric.y) + rounding;
+      const double d = segment_distance(bounder.mapped(Vec2(q.X(), q.Y())), a, b) + map_error + rounding;
       if (trace) trace->deviation = d;
       return d;
     }
