@@ -87,7 +87,8 @@ double estimated_triangles(const Model& model, const SchemeSpec& spec) {
   const double patches = static_cast<double>(model.patches.size());
   if (spec.scheme == Scheme::kUniform) {
     const double n = spec.level >= 0 ? segments_for_level(spec.level) : std::max(spec.segments, 1);
-    return 2.0 * n * n * patches;
+    const double nv = spec.segments_v > 0 && spec.level < 0 ? spec.segments_v : n;
+    return 2.0 * n * nv * patches;
   }
   if (spec.scheme == Scheme::kEsc && spec.level >= 0 && spec.level <= kMaxEscLevel) {
     return static_cast<double>(esc_full_triangle_count(model, spec.level));
@@ -117,8 +118,11 @@ Tessellation run_uniform(const Model& model, const Topology& topology, const Sch
     }
     const int n = spec.level >= 0 ? segments_for_level(spec.level) : spec.segments;
     if (n < 1) throw InputError("--segments must be >= 1, got " + std::to_string(n));
-    guard(2.0 * n * n * static_cast<double>(model.patches.size()), spec);  // uniform_triangle_count, unwrapped
+    if (spec.segments_v > 0 && spec.level >= 0) throw InputError("uniform scheme: segments along v need --segments N");
+    const int nv = spec.segments_v > 0 ? spec.segments_v : n;
+    guard(2.0 * n * nv * static_cast<double>(model.patches.size()), spec);  // uniform_triangle_count, unwrapped
     params.segments = n;
+    params.segments_v = spec.segments_v;
   } else {
     params.segments = spec.segments;  // unused with per-patch levels
   }

@@ -34,26 +34,37 @@ int segments_for_paper_level(int level) {
 
 }  // namespace detail
 
-uint64_t uniform_triangle_count(const Model& model, int segments) {
-  return 2ull * static_cast<uint64_t>(segments) * static_cast<uint64_t>(segments) * model.patches.size();
+uint64_t uniform_triangle_count(const Model& model, int segments, int segments_v) {
+  const uint64_t nv = static_cast<uint64_t>(segments_v > 0 ? segments_v : segments);
+  return 2ull * static_cast<uint64_t>(segments) * nv * model.patches.size();
 }
 
 namespace {
 
 constexpr uint32_t kSkip = UINT32_MAX;  // marks a slot whose triangle repeats a vertex
 
-// Segments of every patch's own grid. Throws InputError for segments < 1 or per-patch levels of
-// the wrong size or outside 0..kMaxUniformLevel.
-std::vector<int> own_segments(size_t np, const UniformParams& params) {
-  std::vector<int> own(np, params.segments);
+// A patch's own grid: nu segments along u, nv along v.
+struct OwnGrid {
+  int nu = 1, nv = 1;
+  // Segments along a side: the u = const sides (U0, U1) run along v.
+  int along(Side side) const { return side == Side::kU0 || side == Side::kU1 ? nv : nu; }
+};
+
+// Every patch's own grid. Throws InputError for segments < 1, segments_v < 0, per-patch levels of
+// the wrong size or outside 0..kMaxUniformLevel, or per-patch levels with segments_v.
+std::vector<OwnGrid> own_grids(size_t np, const UniformParams& params) {
+  if (params.segments_v < 0)
+    throw InputError("segments along v must be >= 1, got " + std::to_string(params.segments_v));
+  std::vector<OwnGrid> own(np, OwnGrid{params.segments, params.segments_v > 0 ? params.segments_v : params.segments});
   if (params.patch_levels.empty()) {
     if (params.segments < 1) throw InputError("--segments must be >= 1, got " + std::to_string(params.segments));
   } else {
+    if (params.segments_v > 0) throw InputError("per-patch levels and segments along v do not combine");
     if (params.patch_levels.size() != np) {
       throw InputError("per-patch levels: " + std::to_string(params.patch_levels.size()) + " levels for " +
                        std::to_string(np) + " patches");
     }
-    for (size_t p = 0; p < np; ++p) own[p] = segments_for_level(params.patch_levels[p]);
+    for (size_t p = 0; p < np; ++p) own[p].nu = own[p].nv = segments_for_level(params.patch_levels[p]);
   }
   return own;
 }
@@ -62,8 +73,8 @@ std::vector<int> own_segments(size_t np, const UniformParams& params) {
 // whether it needs a centre vertex (a single cell with a refined side), its vertex and triangle
 // ranges.
 struct PatchPlan {
-  int n = 1;
-  int ratio[4] = {1, 1, 1, 1};  // per Side: side segments / n
+  int nu = 1, nv = 1;           // the patch's own grid
+  int ratio[4] = {1, 1, 1, 1};  // per Side: side segments / the own grid's segments along it
   bool centre = false;
   uint64_t interior_base = 0;
   uint64_t slot_base = 0;
@@ -77,7 +88,7 @@ struct Plan {
 
 // Plans the patches in order: interior vertices after the side vertices, triangle slots from 0.
 // Throws InputError when a side's samples do not nest with the patch's own grid.
-Plan plan_patches(const Topology& topology, const BoundaryLayout& layout, const std::vector<int>& own) {
+Plan plan_patches(const Topology& topology, const BoundaryLayout& layout, const std::vector<OwnGrid>& own) {
   const size_t np = own.size();
   Plan plan_all;
   std::vector<PatchPlan>& plans = plan_all.patches;
@@ -85,22 +96,24 @@ Plan plan_patches(const Topology& topology, const BoundaryLayout& layout, const 
   uint64_t next_vertex = layout.end, next_slot = 0;
   for (size_t p = 0; p < np; ++p) {
     PatchPlan& plan = plans[p];
-    plan.n = own[p];
+    plan.nu = own[p].nu;
+    plan.nv = own[p].nv;
     uint64_t extra = 0;
     for (Side side : kAllSides) {
       const Topology::SideInfo& info = topology.side(static_cast<uint32_t>(p), side);
       if (info.collapsed) continue;
       const int count = layout.edge_segments[static_cast<size_t>(info.edge)];
-      if (count % plan.n != 0) throw InputError("internal: side samples do not nest with the patch grid");
-      plan.ratio[static_cast<int>(side)] = count / plan.n;
-      extra += static_cast<uint64_t>(count - plan.n);
+      const int n = own[p].along(side);
+      if (count % n != 0) throw InputError("internal: side samples do not nest with the patch grid");
+      plan.ratio[static_cast<int>(side)] = count / n;
+      extra += static_cast<uint64_t>(count - n);
     }
-    plan.centre = plan.n == 1 && extra > 0;
+    plan.centre = plan.nu == 1 && plan.nv == 1 && extra > 0;
     plan.interior_base = next_vertex;
-    next_vertex += static_cast<uint64_t>(plan.n - 1) * static_cast<uint64_t>(plan.n - 1) + (plan.centre ? 1 : 0);
+    next_vertex += static_cast<uint64_t>(plan.nu - 1) * static_cast<uint64_t>(plan.nv - 1) + (plan.centre ? 1 : 0);
     plan.slot_base = next_slot;
     // A cell polygon with V vertices gives V - 2 fan triangles (V around a centre vertex).
-    next_slot += 2ull * static_cast<uint64_t>(plan.n) * static_cast<uint64_t>(plan.n) + extra + (plan.centre ? 2 : 0);
+    next_slot += 2ull * static_cast<uint64_t>(plan.nu) * static_cast<uint64_t>(plan.nv) + extra + (plan.centre ? 2 : 0);
   }
   plan_all.vertices = next_vertex;
   plan_all.slots = next_slot;
@@ -117,15 +130,14 @@ struct PatchPass {
   const UniformParams& params;
   Tessellation& out;
 
-  // Grid point (a, b) of the patch's own n x n grid.
+  // Grid point (a, b) of the patch's own nu x nv grid.
   uint32_t vertex(int a, int b) const {
-    const int n = plan.n;
     const int* ratio = plan.ratio;
     if (a == 0) return side_vertex(layout, topology, pid, Side::kU0, b * ratio[0]);
-    if (a == n) return side_vertex(layout, topology, pid, Side::kU1, b * ratio[1]);
+    if (a == plan.nu) return side_vertex(layout, topology, pid, Side::kU1, b * ratio[1]);
     if (b == 0) return side_vertex(layout, topology, pid, Side::kV0, a * ratio[2]);
-    if (b == n) return side_vertex(layout, topology, pid, Side::kV1, a * ratio[3]);
-    return static_cast<uint32_t>(plan.interior_base + static_cast<uint64_t>(a - 1) * (n - 1) + (b - 1));
+    if (b == plan.nv) return side_vertex(layout, topology, pid, Side::kV1, a * ratio[3]);
+    return static_cast<uint32_t>(plan.interior_base + static_cast<uint64_t>(a - 1) * (plan.nv - 1) + (b - 1));
   }
   void store_vertex(uint32_t id, const SurfacePointEval& e, double u, double v) const {
     out.positions[id] = e.position;
@@ -142,34 +154,34 @@ struct PatchPass {
 // single refined cell.
 void sample_interior(const PatchPass& pp) {
   const BezierPatch& patch = pp.patch;
-  const int n = pp.plan.n;
-  if (n > 1) {
+  const int nu = pp.plan.nu, nv = pp.plan.nv;
+  if (nu > 1 && nv > 1) {
     const detail::PatchEvaluator eval(patch);
     const int du = patch.degree_u, dv = patch.degree_v;
-    std::vector<double> bv(static_cast<size_t>((n + 1) * (dv + 1))), dbv(bv.size());
-    for (int b = 1; b < n; ++b) {
-      eval.basis_row(dv, static_cast<double>(b) / n, &bv[static_cast<size_t>(b * (dv + 1))],
+    std::vector<double> bv(static_cast<size_t>((nv + 1) * (dv + 1))), dbv(bv.size());
+    for (int b = 1; b < nv; ++b) {
+      eval.basis_row(dv, static_cast<double>(b) / nv, &bv[static_cast<size_t>(b * (dv + 1))],
                      &dbv[static_cast<size_t>(b * (dv + 1))]);
     }
     double a_row[kMaxDegree + 1], da_row[kMaxDegree + 1];
     std::array<double, 4> row[kMaxDegree + 1], drow[kMaxDegree + 1];
-    for (int a = 1; a < n; ++a) {
-      const double u = static_cast<double>(a) / n;
+    for (int a = 1; a < nu; ++a) {
+      const double u = static_cast<double>(a) / nu;
       eval.basis_row(du, u, a_row, da_row);
       if (!pp.params.normals) {  // positions only: no partials to contract
         eval.contract_u_position(a_row, row);
-        for (int b = 1; b < n; ++b) {
+        for (int b = 1; b < nv; ++b) {
           SurfacePointEval e;
           e.position = eval.finish_position(row, &bv[static_cast<size_t>(b * (dv + 1))]);
-          pp.store_vertex(pp.vertex(a, b), e, u, static_cast<double>(b) / n);
+          pp.store_vertex(pp.vertex(a, b), e, u, static_cast<double>(b) / nv);
         }
         continue;
       }
       eval.contract_u(a_row, da_row, row, drow);
-      for (int b = 1; b < n; ++b) {
+      for (int b = 1; b < nv; ++b) {
         const SurfacePointEval e =
             eval.finish(row, drow, &bv[static_cast<size_t>(b * (dv + 1))], &dbv[static_cast<size_t>(b * (dv + 1))]);
-        pp.store_vertex(pp.vertex(a, b), e, u, static_cast<double>(b) / n);
+        pp.store_vertex(pp.vertex(a, b), e, u, static_cast<double>(b) / nv);
       }
     }
   }
@@ -197,20 +209,20 @@ struct Corner {
 // with the side samples that fall strictly inside a cell edge lying on a refined patch side, as a
 // fan around the centre vertex (single cell) or from its corner inside the patch.
 void fan_refined_cell(const PatchPass& pp, int a, int b, std::vector<Corner>& polygon, SlotWriter& w) {
-  const int n = pp.plan.n;
-  const double nd = static_cast<double>(n);
+  const int nu = pp.plan.nu, nv = pp.plan.nv;
+  const double nud = static_cast<double>(nu), nvd = static_cast<double>(nv);
   const int* ratio = pp.plan.ratio;
-  const Vec2 uv00(a / nd, b / nd), uv10((a + 1) / nd, b / nd), uv01(a / nd, (b + 1) / nd),
-      uv11((a + 1) / nd, (b + 1) / nd);
+  const Vec2 uv00(a / nud, b / nvd), uv10((a + 1) / nud, b / nvd), uv01(a / nud, (b + 1) / nvd),
+      uv11((a + 1) / nud, (b + 1) / nvd);
   const uint32_t v00 = pp.vertex(a, b), v10 = pp.vertex(a + 1, b), v01 = pp.vertex(a, b + 1),
                  v11 = pp.vertex(a + 1, b + 1);
   polygon.clear();
   auto corner = [&](int ca, int cb, uint32_t id, const Vec2& uv) {
-    polygon.push_back({id, uv, ca > 0 && ca < n && cb > 0 && cb < n});
+    polygon.push_back({id, uv, ca > 0 && ca < nu && cb > 0 && cb < nv});
   };
   auto side_samples = [&](Side side, int cell, bool forward) {
     const int r = ratio[static_cast<int>(side)];
-    const double count = static_cast<double>(r) * n;
+    const double count = static_cast<double>(r) * (side == Side::kU0 || side == Side::kU1 ? nv : nu);
     for (int s = 1; s < r; ++s) {
       const int k = cell * r + (forward ? s : r - s);
       polygon.push_back({side_vertex(pp.layout, pp.topology, pp.pid, side, k), side_uv(side, k / count), false});
@@ -219,9 +231,9 @@ void fan_refined_cell(const PatchPass& pp, int a, int b, std::vector<Corner>& po
   corner(a, b, v00, uv00);
   if (b == 0) side_samples(Side::kV0, a, true);
   corner(a + 1, b, v10, uv10);
-  if (a + 1 == n) side_samples(Side::kU1, b, true);
+  if (a + 1 == nu) side_samples(Side::kU1, b, true);
   corner(a + 1, b + 1, v11, uv11);
-  if (b + 1 == n) side_samples(Side::kV1, a, false);
+  if (b + 1 == nv) side_samples(Side::kV1, a, false);
   corner(a, b + 1, v01, uv01);
   if (a == 0) side_samples(Side::kU0, b, false);
   const size_t count = polygon.size();
@@ -247,21 +259,21 @@ void fan_refined_cell(const PatchPass& pp, int a, int b, std::vector<Corner>& po
 
 // The triangles of every cell of the patch's grid, in cell order, into its slots.
 void triangulate_cells(const PatchPass& pp, SlotWriter& w) {
-  const int n = pp.plan.n;
-  const double nd = static_cast<double>(n);
+  const int nu = pp.plan.nu, nv = pp.plan.nv;
+  const double nud = static_cast<double>(nu), nvd = static_cast<double>(nv);
   const int* ratio = pp.plan.ratio;
   std::vector<Corner> polygon;
-  for (int a = 0; a < n; ++a) {
-    for (int b = 0; b < n; ++b) {
-      const bool refined = (a == 0 && ratio[0] > 1) || (a == n - 1 && ratio[1] > 1) || (b == 0 && ratio[2] > 1) ||
-                           (b == n - 1 && ratio[3] > 1);
+  for (int a = 0; a < nu; ++a) {
+    for (int b = 0; b < nv; ++b) {
+      const bool refined = (a == 0 && ratio[0] > 1) || (a == nu - 1 && ratio[1] > 1) || (b == 0 && ratio[2] > 1) ||
+                           (b == nv - 1 && ratio[3] > 1);
       if (refined) {
         fan_refined_cell(pp, a, b, polygon, w);
         continue;
       }
       // two triangles, oriented like the (u, v) square
-      const Vec2 uv00(a / nd, b / nd), uv10((a + 1) / nd, b / nd), uv01(a / nd, (b + 1) / nd),
-          uv11((a + 1) / nd, (b + 1) / nd);
+      const Vec2 uv00(a / nud, b / nvd), uv10((a + 1) / nud, b / nvd), uv01(a / nud, (b + 1) / nvd),
+          uv11((a + 1) / nud, (b + 1) / nvd);
       const uint32_t v00 = pp.vertex(a, b), v10 = pp.vertex(a + 1, b), v01 = pp.vertex(a, b + 1),
                      v11 = pp.vertex(a + 1, b + 1);
       w.emit(v00, v10, v11, uv00, uv10, uv11);
@@ -298,15 +310,23 @@ void compact(const std::vector<PatchPlan>& plans, const std::vector<Triangle>& s
 
 Tessellation tessellate_uniform(const Model& model, const Topology& topology, const UniformParams& params) {
   const size_t np = model.patches.size();
-  const std::vector<int> own = own_segments(np, params);
+  const std::vector<OwnGrid> own = own_grids(np, params);
   // A boundary curve takes the finest grid among the patches using it (levels nest, so every
-  // user's own segment count divides it).
+  // user's own segment count divides it). With segments_v every user must ask for the same count.
   const BoundaryLayout layout = layout_boundary(
       topology,
       [&](size_t e) {
-        int n = 1;
-        for (const SideRef& use : topology.edges[e].uses) n = std::max(n, own[use.patch]);
-        return n;
+        int n = 0;
+        for (const SideRef& use : topology.edges[e].uses) {
+          const int along = own[use.patch].along(use.side);
+          if (params.segments_v > 0 && n > 0 && along != n) {
+            throw InputError(
+                "segments along u and v differ, and a patch side is shared by a u side and a v side: "
+                "give one segment count");
+          }
+          n = std::max(n, along);
+        }
+        return std::max(n, 1);
       },
       0);
   const Plan plan = plan_patches(topology, layout, own);

@@ -225,6 +225,62 @@ TEST(Uniform, LevelsNestAndLimitsAreExplained) {
   EXPECT_EQ(matched, a.positions.size());
 }
 
+// An anisotropic grid (segments along u, segments_v along v) on the closed rational torus, whose
+// patches share u sides with u sides and v sides with v sides: closed, no welding, every vertex on
+// the exact surface at its grid parameters, 2 nu nv triangles per patch.
+TEST(Uniform, AnisotropicGridIsClosedAndOnTheSurface) {
+  const Model model = fixtures::rational_torus();
+  for (const auto& [nu, nv] : {std::pair{5, 2}, std::pair{1, 7}, std::pair{3, 3}}) {
+    UniformParams params;
+    params.segments = nu;
+    params.segments_v = nv;
+    const Tessellation t = tessellate_uniform(model, build_topology(model), params);
+    EXPECT_EQ(t.triangles.size(), 2u * nu * nv * model.patches.size()) << nu << "x" << nv;
+    EXPECT_EQ(uniform_triangle_count(model, nu, nv), t.triangles.size());
+    const test::MeshCounts m = test::count_topology(t);
+    EXPECT_EQ(m.open_edges, 0u) << nu << "x" << nv;
+    EXPECT_EQ(m.nonmanifold_edges, 0u);
+    EXPECT_EQ(m.misoriented_edges, 0u);
+    EXPECT_EQ(m.euler(), 0);
+    EXPECT_EQ(m.used_vertices, t.positions.size());
+    for (size_t k = 0; k < t.triangles.size(); ++k) {
+      for (int s = 0; s < 3; ++s) {
+        const Vec2 uv = t.triangle_uv[k][s];
+        // On the patch's own nu x nv grid.
+        EXPECT_NEAR(uv.x * nu, std::round(uv.x * nu), 1e-12);
+        EXPECT_NEAR(uv.y * nv, std::round(uv.y * nv), 1e-12);
+        const auto ref = de_casteljau<long double>(model.patches[t.triangle_patch[k]], uv.x, uv.y);
+        const Vec3& p = t.positions[t.triangles[k][s]];
+        for (int c = 0; c < 3; ++c) ASSERT_NEAR(p[c], static_cast<double>(ref[static_cast<size_t>(c)]), 1e-12);
+      }
+    }
+  }
+}
+
+// A side shared by one patch's u side and another's v side cannot take two counts: refused.
+TEST(Uniform, AnisotropicGridRefusesSidesSharedAcrossDirections) {
+  BezierPatch a;
+  a.degree_u = a.degree_v = 1;
+  a.points = {Vec3(0, 0, 0), Vec3(0, 1, 0), Vec3(1, 0, 0), Vec3(1, 1, 0)};  // (i, j): u along x
+  BezierPatch b;
+  b.degree_u = b.degree_v = 1;
+  // b's side V0 (j = 0, u runs along it) is a's side U1 (x = 1).
+  b.points = {Vec3(1, 0, 0), Vec3(2, 0, 0), Vec3(1, 1, 0), Vec3(2, 1, 0)};
+  Model model;
+  model.patches = {a, b};
+  const Topology topology = build_topology(model);
+  UniformParams params;
+  params.segments = 4;
+  params.segments_v = 2;
+  EXPECT_THROW(tessellate_uniform(model, topology, params), InputError);
+  params.segments_v = 4;  // the same count both ways: fine
+  const Tessellation t = tessellate_uniform(model, topology, params);
+  EXPECT_EQ(t.triangles.size(), 64u);
+  EXPECT_EQ(test::count_topology(t).open_edges, 24u);  // 6 free sides of 4 segments
+  params.segments_v = -1;
+  EXPECT_THROW(tessellate_uniform(model, topology, params), InputError);
+}
+
 TEST(Uniform, RejectsBadSegments) {
   const Model model = fixtures::pillow_box();
   UniformParams params;

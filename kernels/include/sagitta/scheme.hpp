@@ -40,6 +40,7 @@ struct SchemeSpec {
   Scheme scheme = Scheme::kUniform;
   int level = -1;                                   // uniform: 2^L segments; esc: pattern level; pn: segments per edge
   int segments = -1;                                // uniform: N segments per side
+  int segments_v = 0;                               // uniform: > 0: segments along v (UniformParams::segments_v)
   double threshold = 0.0;                           // esc: distance threshold rho
   bool per_edge_levels = false;                     // esc: EscParams::per_edge_levels
   std::vector<int> patch_levels;                    // uniform: UniformParams::patch_levels (then `segments` is unused)

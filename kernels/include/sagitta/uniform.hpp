@@ -10,7 +10,10 @@
 namespace sagitta {
 
 struct UniformParams {
-  int segments = 8;        // N >= 1 segments per patch side
+  int segments = 8;  // N >= 1 segments per patch side (along u when segments_v is given)
+  // > 0: an anisotropic grid, `segments` along u and segments_v along v on every patch (each shared
+  // side must then be a u side or a v side for all its users); 0: segments along both.
+  int segments_v = 0;
   // Optional per-patch levels (one per patch; empty: every patch uses `segments`). Patch p is sampled
   // on a 2^L x 2^L grid; a side shared with a finer neighbour takes the neighbour's samples and the
   // patch stitches its border cells to them (see tessellate_uniform).
@@ -29,7 +32,7 @@ int segments_for_paper_level(int level);
 }  // namespace detail
 
 // Triangles the scheme will produce (emitted + degenerate) before allocating anything.
-uint64_t uniform_triangle_count(const Model& model, int segments);
+uint64_t uniform_triangle_count(const Model& model, int segments, int segments_v = 0);
 
 // Guarantees: vertices on a shared side are computed once from that side's boundary curve in its
 // canonical direction and indexed once, so neighbours share them exactly (no welding); vertices on

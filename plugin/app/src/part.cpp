@@ -49,6 +49,7 @@ nlohmann::json part_json(const occt::PartMesh& part) {
                      {"status", f.status},
                      {"reason", f.reason},
                      {"segments", f.segments},
+                     {"grid", {f.segments_u, f.segments_v}},
                      {"triangles", f.triangles},
                      {"scheme_triangles", f.scheme_triangles},
                      {"max_boundary_offset", f.max_boundary_offset}});

@@ -1039,7 +1039,7 @@ nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCerti
                           {"upper", number_or_null(f.certified ? f.hausdorff.upper : kInf)}};
     if (f.route == "loops") row["chords"] = f.chords, row["sliver"] = f.sliver;
     row["triangles"] = pf.triangles;
-    if (pf.segments > 0) row["segments"] = pf.segments;
+    if (pf.segments > 0) row["segments"] = pf.segments, row["grid"] = {pf.segments_u, pf.segments_v};
     row["seconds"] = f.seconds;
     if (!f.certified) row["reason"] = f.reason;
     faces.push_back(std::move(row));

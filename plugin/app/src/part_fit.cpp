@@ -177,9 +177,11 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   //    once, one whole-part run per round; only runs in which every face meets are kept. Faces share
   //    their edges' samples, and an edge owned by an untrimmed neighbour takes that neighbour's scheme
   //    vertices: a face kept at its hi can miss once its neighbours are coarser (a trimmed sphere's
-  //    chords through its re-parametrisation). Its neighbours then get at least its N, and when
+  //    chords through its re-parametrisation). Such a face is first raised itself by half its N,
+  //    twice (often its own grid is just short); then its neighbours get at least its N, and when
   //    they already have it, the face itself is doubled.
   std::vector<int> at_least(hi.size(), 0);  // per face: the N its neighbours' misses asked for
+  std::vector<int> self_raised(hi.size(), 0);
   std::vector<int> segments(hi.begin(), hi.end());
   for (int step = 0; step < 16; ++step) {
     std::vector<int> trial = segments;
@@ -201,7 +203,14 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
         continue;
       }
       if (meets) continue;
-      // Kept at hi and missed: its neighbours are raised to its N, or, where they have it, itself.
+      // Kept at hi and missed: itself by half (twice), then its neighbours to its N, or, where they
+      // have it, itself doubled.
+      if (self_raised[f] < 2) {
+        ++self_raised[f];
+        lo[f] = hi[f];
+        hi[f] = std::min(hi[f] + std::max(1, hi[f] / 2), kMaxFitSegments);
+        continue;
+      }
       bool raised = false;
       for (int g : neighbours[f]) {
         if (at_least[static_cast<size_t>(g)] < trial[f]) at_least[static_cast<size_t>(g)] = trial[f], raised = true;

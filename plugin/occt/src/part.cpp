@@ -126,7 +126,11 @@ struct FaceGeometry {
   Handle(Geom_BSplineSurface) converted;  // null: (U, V) = (u, v)
   bool reversed = false;
   int nu = 0, nv = 0;             // patch grid
-  double su = 1.0, sv = 1.0;      // scale of U and V in the CDT (mean |dS/dU|, |dS/dV|)
+  double su = 1.0, sv = 1.0;      // mean |dS/dU|, |dS/dV|: the metric of chords and certificates
+  // Scale of U and V in the loops and the CDT: (su, sv), with the direction the anisotropic grid
+  // coarsened shrunk by the same factor, so grid cells keep the shape an N x N grid gives them and
+  // the Delaunay triangles stay about one cell wide across the coarse direction.
+  double cu = 1.0, cv = 1.0;
   double u_period = 0.0, v_period = 0.0;  // of the face's surface (0: not periodic)
   // (U, V) = (u, v): B-spline and Bézier faces, and planes (whose conversion keeps the parameters,
   // checked at 9 points); otherwise face_to_uv solves for (U, V).
@@ -140,6 +144,9 @@ struct FaceGeometry {
   std::map<std::pair<double, double>, uint32_t> scheme_sides;
   int solid = -1;
   int segments = 1;  // the scheme's segments per patch side on this face (ESC: 1, the edge density's unit)
+  // The uniform scheme's grid on every patch of the face: segments_u x segments_v, the larger equal
+  // to `segments`, the other scaled by grid_aspect (1 x 1 for ESC: the edge density's unit).
+  int segments_u = 1, segments_v = 1;
 };
 
 double clamp(double x, double lo, double hi) { return std::min(std::max(x, lo), hi); }
@@ -269,6 +276,8 @@ void set_scale(FaceGeometry& g) {
   }
   g.su = n > 0 && std::isfinite(su) && su > 0.0 ? su / n : 1.0;
   g.sv = n > 0 && std::isfinite(sv) && sv > 0.0 ? sv / n : 1.0;
+  g.cu = g.su;
+  g.cv = g.sv;
 }
 
 // A converted surface whose (U, V) equal OCCT's (u, v) (a plane: its bilinear form keeps the
@@ -321,14 +330,91 @@ FaceGeometry face_geometry(const ShapeIndex& x, int f, const std::string& name, 
 }
 
 // The scheme's tessellation of the face's patches into g.scheme / g.scheme_uv.
+// How the face bends, from its patches' control nets: aspect = segments along v per segment along
+// u that balance its chord error, sqrt((Av + T) / (Au + T)), where Au, Av are the largest second
+// differences along u and v times d (d - 1) and T the largest twist times du dv (the derivative
+// bounds of a polynomial patch; for a rational one, of its control polygon). With an error like
+// Au / nu^2 + Av / nv^2 this ratio gives the fewest triangles nu nv for a given error. Aspect 0
+// along a direction where every patch is straight (a cylinder's or a cone's rulings): one segment
+// per patch there. `flat`: every second difference and twist vanishes (to 1e-12 of the net's size),
+// the patches are planar parallelograms and one cell per patch is exact.
+struct FaceBend {
+  double aspect = 1.0;
+  bool flat = false;
+};
+FaceBend face_bend(const std::vector<BezierPatch>& patches) {
+  double au = 0.0, av = 0.0, twist = 0.0;
+  Vec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  for (const BezierPatch& p : patches) {
+    const int du = p.degree_u, dv = p.degree_v;
+    for (int i = 0; i <= du; ++i) {
+      for (int j = 0; j <= dv; ++j) {
+        lo = glm::min(lo, p.at(i, j)), hi = glm::max(hi, p.at(i, j));
+        if (i + 2 <= du)
+          au = std::max(au, du * (du - 1) * glm::length(p.at(i + 2, j) - 2.0 * p.at(i + 1, j) + p.at(i, j)));
+        if (j + 2 <= dv)
+          av = std::max(av, dv * (dv - 1) * glm::length(p.at(i, j + 2) - 2.0 * p.at(i, j + 1) + p.at(i, j)));
+        if (i + 1 <= du && j + 1 <= dv)
+          twist =
+              std::max(twist, du * dv * glm::length(p.at(i + 1, j + 1) - p.at(i + 1, j) - p.at(i, j + 1) + p.at(i, j)));
+      }
+    }
+  }
+  FaceBend bend;
+  if (!std::isfinite(au + av + twist) || patches.empty()) return bend;
+  const double size = glm::length(hi - lo);
+  // A rational patch's control polygon may be flat while its weights still bend the surface.
+  bool rational = false;
+  for (const BezierPatch& p : patches) rational = rational || p.rational();
+  bend.flat = !rational && au + av + twist <= 1e-12 * size;
+  if (bend.flat || !(au + twist > 0.0)) return bend;
+  bend.aspect = std::sqrt((av + twist) / (au + twist));
+  return bend;
+}
+
+// The face's grid for `segments` N: 1 x 1 when flat, else N along the direction that bends more and
+// N * aspect (rounded up, at least 1) along the other.
+std::pair<int, int> face_grid(int segments, const FaceBend& bend) {
+  if (bend.flat) return {1, 1};
+  const double aspect = bend.aspect;
+  if (!(aspect > 0.0) || !std::isfinite(aspect)) return {segments, std::max(1, segments)};
+  if (aspect <= 1.0) return {segments, std::max(1, static_cast<int>(std::ceil(segments * aspect - 1e-9)))};
+  return {std::max(1, static_cast<int>(std::ceil(segments / aspect - 1e-9))), segments};
+}
+
 void tessellate_face_patches(FaceGeometry& g, const SchemeSpec& scheme) {
+  g.segments_u = g.segments_v = g.segments;
+  g.cu = g.su;
+  g.cv = g.sv;
   if (g.patches.empty()) return;
   Model model;
   model.patches = g.patches;
   SchemeSpec spec = scheme;
   spec.surface_data = true;
   spec.vertex_normals = false;
-  g.scheme = tessellate(model, build_topology(model), spec);
+  const Topology topology = build_topology(model);
+  if (spec.scheme == Scheme::kUniform && spec.patch_levels.empty()) {
+    const auto [nu, nv] = face_grid(g.segments, face_bend(g.patches));
+    if (nu != nv || nu != g.segments) {
+      SchemeSpec aniso = spec;
+      aniso.level = -1;
+      aniso.segments = nu;
+      aniso.segments_v = nv;
+      try {
+        g.scheme = tessellate(model, topology, aniso);
+        g.segments_u = nu;
+        g.segments_v = nv;
+        // A flat face's cells keep the CDT's own metric (nothing to gain from stretching).
+        if (nu != nv) g.cu = g.su * nu / g.segments, g.cv = g.sv * nv / g.segments;
+      } catch (const InputError&) {  // a side shared along u by one patch and along v by another
+        g.scheme = tessellate(model, topology, spec);
+      }
+    } else {
+      g.scheme = tessellate(model, topology, spec);
+    }
+  } else {
+    g.scheme = tessellate(model, topology, spec);
+  }
   g.scheme_uv.assign(g.scheme.positions.size(), Vec2(0.0));
   const std::vector<double>& ub = g.report.u_breaks;
   const std::vector<double>& vb = g.report.v_breaks;
@@ -372,8 +458,8 @@ SchemeSpec face_scheme(const PartOptions& options, int f) {
   return scheme;
 }
 
-// The edge's p-curve on face g sampled at 33 points, in patch-grid units (a patch span is 1): how many
-// grid cells of the face the edge runs along.
+// The edge's p-curve on face g sampled at 33 points, in the face's grid cells (a patch span is
+// segments_u cells along u and segments_v along v): how many grid cells of the face the edge runs along.
 double grid_length(const FaceGeometry& g, const TopoDS_Edge& edge) {
   double f = 0.0, l = 0.0;
   const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(edge, g.face, f, l);
@@ -386,7 +472,7 @@ double grid_length(const FaceGeometry& g, const TopoDS_Edge& edge) {
     const Vec2 UV = face_to_uv(g, q.X() + shift.x, q.Y() + shift.y);
     const auto [i, s] = locate_span(g.report.u_breaks, UV.x);
     const auto [j, t] = locate_span(g.report.v_breaks, UV.y);
-    const Vec2 grid(i + s, j + t);
+    const Vec2 grid((i + s) * g.segments_u, (j + t) * g.segments_v);
     if (k > 0) length += glm::length(grid - prev);
     prev = grid;
   }
@@ -551,29 +637,30 @@ EdgePlan plan_edge(const PartOptions& options, const ShapeIndex& x, const std::v
   plan.free = faces.size() == 1 && !seam && !plan.degenerated;
   std::unique_ptr<BRepAdaptor_Curve> curve;
   if (!plan.degenerated) curve = std::make_unique<BRepAdaptor_Curve>(edge);
-  // The owner: the first untrimmed face using the edge; its scheme's side vertices are the samples.
+  // The owner: of the untrimmed faces using the edge along a side of their patch range, the one
+  // whose scheme puts the most vertices on it (the finer grid keeps its triangles; a coarser one,
+  // a flat face's 1 x 1 grid say, is triangulated from the loops); its side vertices are the samples.
   bool owned = false;
   for (int f : faces) {
     const FaceGeometry& g = geometry[f];
     if (g.patches.empty() || g.report.status == "trimmed" || plan.degenerated) continue;
     std::map<double, Vec3> samples;
-    if (owner_samples(g, edge, first, last, samples)) {
-      plan.t = {first};
-      for (const auto& [t, p] : samples) {
-        if (t > first && t < last) plan.t.push_back(t);
-      }
-      plan.t.push_back(last);
-      plan.owner_positions = std::move(samples);
-      owned = true;
+    if (!owner_samples(g, edge, first, last, samples)) continue;
+    if (owned && samples.size() <= plan.owner_positions.size()) continue;
+    plan.t = {first};
+    for (const auto& [t, p] : samples) {
+      if (t > first && t < last) plan.t.push_back(t);
     }
-    break;
+    plan.t.push_back(last);
+    plan.owner_positions = std::move(samples);
+    owned = true;
   }
   if (!owned) {  // the scheme's density on every face that uses the edge, and its turning
     int n = 1, segs = 1;
     for (int f : faces) {
       if (geometry[f].patches.empty()) continue;
       segs = std::max(segs, geometry[f].segments);
-      n = std::max(n, static_cast<int>(std::ceil(grid_length(geometry[f], edge) * geometry[f].segments - 1e-9)));
+      n = std::max(n, static_cast<int>(std::ceil(grid_length(geometry[f], edge) - 1e-9)));
     }
     if (curve) {
       const double turn = turning(*curve, first, last);
@@ -730,7 +817,7 @@ struct RangeCurve {
 BoundaryChord bound_chord(const FaceGeometry& g, const RangeCurve& rc, const LoopPoint& p, const LoopPoint& q) {
   BoundaryChord c;
   c.a = p.vertex, c.b = q.vertex;
-  c.uv_a = Vec2(p.q.x / g.su, p.q.y / g.sv), c.uv_b = Vec2(q.q.x / g.su, q.q.y / g.sv);
+  c.uv_a = Vec2(p.q.x / g.cu, p.q.y / g.cv), c.uv_b = Vec2(q.q.x / g.cu, q.q.y / g.cv);
   detail::ParameterMap map;
   map.identity = g.identity_map;
   map.shift = rc.shift;
@@ -806,7 +893,7 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
     const uint32_t start = static_cast<uint32_t>(points.size());
     for (size_t k = 0; k < s.t.size(); ++k) {
       const Vec2 UV = uv_at(s.t[k]);
-      points.push_back({Vec2(UV.x * g.su, UV.y * g.sv), s.vertex[k], s.t[k]});
+      points.push_back({Vec2(UV.x * g.cu, UV.y * g.cv), s.vertex[k], s.t[k]});
       const double offset = glm::length(b.out.mesh.positions[s.vertex[k]] - eval_uv(g, UV));
       pf.max_boundary_offset = std::max(pf.max_boundary_offset, offset);
       if (!b.surface_point_set[s.vertex[k]]) {
@@ -915,7 +1002,7 @@ SchemeMesh scheme_mesh(const FaceGeometry& g, const SegmentGrid& grid) {
   sm.vertex_uv = g.scheme_uv;
   sm.kept.assign(m.triangles.size(), false);
   sm.mesh_vertex.assign(m.positions.size(), std::numeric_limits<uint32_t>::max());
-  const Vec2 scale(g.su, g.sv);
+  const Vec2 scale(g.cu, g.cv);
   for (size_t t = 0; t < m.triangles.size(); ++t) {
     std::array<Vec2, 3> q;
     for (int k = 0; k < 3; ++k) q[k] = sm.vertex_uv[m.triangles[t][k]] * scale;
@@ -936,7 +1023,7 @@ SchemeMesh scheme_mesh(const FaceGeometry& g, const SegmentGrid& grid) {
 void add_free_points(PartBuilder& b, const FaceGeometry& g, const SegmentGrid& grid, const SchemeMesh& sm,
                      PartFace& pf, std::vector<Vec2>& points, std::vector<uint32_t>& vertex) {
   const Tessellation& m = sm.mesh;
-  const Vec2 scale(g.su, g.sv);
+  const Vec2 scale(g.cu, g.cv);
   std::vector<double> spacing(m.positions.size(), std::numeric_limits<double>::max());
   for (size_t t = 0; t < m.triangles.size(); ++t) {
     for (int k = 0; k < 3; ++k) {
@@ -990,7 +1077,7 @@ bool try_keep_whole_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, co
   const std::vector<double>& ub = g.report.u_breaks;
   const std::vector<double>& vb = g.report.v_breaks;
   const Vec2 eps(1e-9 * (ub.back() - ub.front()), 1e-9 * (vb.back() - vb.front()));
-  const Vec2 scale(g.su, g.sv);
+  const Vec2 scale(g.cu, g.cv);
   const auto near = [&](const Vec2& p, const Vec2& q) {
     return std::abs(p.x - q.x) <= eps.x && std::abs(p.y - q.y) <= eps.y;
   };
@@ -1057,7 +1144,7 @@ detail::CdtResult cdt_without_ears(PartBuilder& b, const FaceGeometry& g,
                                    const std::vector<int>& segment_edge,
                                    const std::vector<std::array<uint32_t, 2>>& constraints, std::vector<Vec2>& points,
                                    std::vector<uint32_t>& vertex) {
-  const Vec2 scale(g.su, g.sv);
+  const Vec2 scale(g.cu, g.cv);
   detail::CdtResult cdt;
   for (int round = 0;; ++round) {
     cdt = detail::constrained_delaunay(points, constraints, segments.size());
@@ -1130,7 +1217,7 @@ bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
   const SegmentGrid grid(loop, segments);
   SchemeMesh sm = scheme_mesh(g, grid);
   const Tessellation& m = sm.mesh;
-  const Vec2 scale(g.su, g.sv);
+  const Vec2 scale(g.cu, g.cv);
 
   // CDT input: the loop points, then the kept triangles' vertices; constraints: the loop chords and
   // the kept triangles' edges (so each kept triangle is a face of the CDT).
@@ -1332,7 +1419,10 @@ void add_face(PartBuilder& b, const FaceGeometry& g, const std::function<bool(Pa
   pf.surface_type = g.report.surface_type;
   pf.trimmed = g.report.status == "trimmed";
   // Our own uniform tessellation only (a foreign mesh's faces have no scheme).
-  pf.segments = b.options.scheme.scheme == Scheme::kUniform && !g.scheme.triangles.empty() ? g.segments : 0;
+  const bool uniform = b.options.scheme.scheme == Scheme::kUniform && !g.scheme.triangles.empty();
+  pf.segments = uniform ? g.segments : 0;
+  pf.segments_u = uniform ? g.segments_u : 0;
+  pf.segments_v = uniform ? g.segments_v : 0;
   pf.solid = g.solid;
   pf.status = "skipped";
   if (g.patches.empty()) {
@@ -1499,7 +1589,7 @@ bool take_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, const std::v
   pf.chords = std::move(chords);
   pf.chord_metric = Vec2(g.su, g.sv);
   std::unordered_map<uint32_t, std::vector<Vec2>> loop_uv;
-  for (const LoopPoint& p : loop) loop_uv[p.vertex].push_back(Vec2(p.q.x / g.su, p.q.y / g.sv));
+  for (const LoopPoint& p : loop) loop_uv[p.vertex].push_back(Vec2(p.q.x / g.cu, p.q.y / g.cv));
   const auto period_steps = [&](const Vec2& d) {
     return std::make_pair(g.u_period > 0.0 ? std::round(d.x / g.u_period) : 0.0, g.v_period > 0.0 ? std::round(d.y / g.v_period) : 0.0);
   };

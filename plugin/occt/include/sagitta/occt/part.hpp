@@ -69,6 +69,10 @@ struct PartFace {
   int first_patch = -1;      // into PartMesh::model.patches
   int patch_count = 0;
   int segments = 0;               // uniform: the scheme's segments per patch side on this face (0: esc)
+  // uniform: the grid every patch of the face is sampled on, segments_u x segments_v: `segments`
+  // along the direction that bends more, fewer along one that bends less (a cylinder's rulings take
+  // one), 1 x 1 on a flat face (0 x 0: esc).
+  int segments_u = 0, segments_v = 0;
   uint64_t triangles = 0;         // emitted triangles of the face
   uint64_t scheme_triangles = 0;  // of those, the scheme's own triangles kept unchanged
   uint64_t boundary_vertices = 0; // shared edge vertices on the face's loops
