@@ -177,11 +177,12 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   //    once, one whole-part run per round; only runs in which every face meets are kept. Faces share
   //    their edges' samples, and an edge owned by an untrimmed neighbour takes that neighbour's scheme
   //    vertices: a face kept at its hi can miss once its neighbours are coarser (a trimmed sphere's
-  //    chords through its re-parametrisation). Such a face is first raised itself by half its N,
-  //    twice (often its own grid is just short); then its neighbours get at least its N, and when
-  //    they already have it, the face itself is doubled.
+  //    chords through its re-parametrisation). Such a face is first raised itself by half its N
+  //    (often its own grid is just short; up to twice while that lowers its bound); then its
+  //    neighbours get at least its N, and when they already have it, the face itself is doubled.
   std::vector<int> at_least(hi.size(), 0);  // per face: the N its neighbours' misses asked for
   std::vector<int> self_raised(hi.size(), 0);
+  std::vector<double> raised_from(hi.size(), -1.0);  // per face: its bound when last raised itself
   std::vector<int> segments(hi.begin(), hi.end());
   for (int step = 0; step < 16; ++step) {
     std::vector<int> trial = segments;
@@ -203,10 +204,15 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
         continue;
       }
       if (meets) continue;
-      // Kept at hi and missed: itself by half (twice), then its neighbours to its N, or, where they
-      // have it, itself doubled.
-      if (self_raised[f] < 2) {
+      // Kept at hi and missed: first itself by half (up to twice). Where that moved its bound by
+      // less than 5 %, its error comes from its boundary (the neighbours' samples): its neighbours
+      // get its N, and where they have it, itself is doubled.
+      const FaceCertificate& fc = per_face.certificate.faces[f];
+      const double upper = fc.certified ? fc.upper : kInf;
+      const bool own_grid_helps = raised_from[f] < 0.0 || upper < 0.95 * raised_from[f];
+      if (own_grid_helps && self_raised[f] < 2) {
         ++self_raised[f];
+        raised_from[f] = upper;
         lo[f] = hi[f];
         hi[f] = std::min(hi[f] + std::max(1, hi[f] / 2), kMaxFitSegments);
         continue;

@@ -335,9 +335,9 @@ FaceGeometry face_geometry(const ShapeIndex& x, int f, const std::string& name, 
 // differences along u and v times d (d - 1) and T the largest twist times du dv (the derivative
 // bounds of a polynomial patch; for a rational one, of its control polygon). With an error like
 // Au / nu^2 + Av / nv^2 this ratio gives the fewest triangles nu nv for a given error. Aspect 0
-// along a direction where every patch is straight (a cylinder's or a cone's rulings): one segment
-// per patch there. `flat`: every second difference and twist vanishes (to 1e-12 of the net's size),
-// the patches are planar parallelograms and one cell per patch is exact.
+// (straight along v) or infinity (straight along u) where every patch is straight one way (a
+// cylinder's or a cone's rulings): one segment per patch there. `flat`: every second difference and twist vanishes (to
+// 1e-12 of the net's size), the patches are planar parallelograms and one cell per patch is exact.
 struct FaceBend {
   double aspect = 1.0;
   bool flat = false;
@@ -367,8 +367,9 @@ FaceBend face_bend(const std::vector<BezierPatch>& patches) {
   bool rational = false;
   for (const BezierPatch& p : patches) rational = rational || p.rational();
   bend.flat = !rational && au + av + twist <= 1e-12 * size;
-  if (bend.flat || !(au + twist > 0.0)) return bend;
-  bend.aspect = std::sqrt((av + twist) / (au + twist));
+  if (bend.flat) return bend;
+  // Straight along u (and bending along v): one segment per patch along u.
+  bend.aspect = au + twist > 0.0 ? std::sqrt((av + twist) / (au + twist)) : std::numeric_limits<double>::infinity();
   return bend;
 }
 
@@ -377,7 +378,8 @@ FaceBend face_bend(const std::vector<BezierPatch>& patches) {
 std::pair<int, int> face_grid(int segments, const FaceBend& bend) {
   if (bend.flat) return {1, 1};
   const double aspect = bend.aspect;
-  if (!(aspect > 0.0) || !std::isfinite(aspect)) return {segments, std::max(1, segments)};
+  if (std::isinf(aspect)) return {1, segments};
+  if (!(aspect >= 0.0)) return {segments, std::max(1, segments)};  // NaN
   if (aspect <= 1.0) return {segments, std::max(1, static_cast<int>(std::ceil(segments * aspect - 1e-9)))};
   return {std::max(1, static_cast<int>(std::ceil(segments / aspect - 1e-9))), segments};
 }
