@@ -521,7 +521,12 @@ void refine_to_tolerance(const BRepAdaptor_Curve& c, std::vector<double>& t, dou
         worst = std::max(worst, chord_distance(to_vec(c.Value(t[k] + w * (t[k + 1] - t[k]))), a, b));
       }
       if (worst > tol && out.size() + (t.size() - k) < cap) {
-        out.push_back(0.5 * (t[k] + t[k + 1]));
+        // A chord's deviation grows like its length squared: m equal pieces with m^2 >= worst / tol
+        // (2 % margin) should pass; halving instead could leave a curve with up to twice the chords.
+        const double want = std::ceil(std::sqrt(worst / tol) * 1.02);
+        const size_t room = cap - (out.size() + (t.size() - k));
+        const int m = static_cast<int>(std::min<double>({std::max(2.0, want), 64.0, static_cast<double>(room + 1)}));
+        for (int i = 1; i < m; ++i) out.push_back(t[k] + (t[k + 1] - t[k]) * i / m);
         changed = true;
       }
       out.push_back(t[k + 1]);
