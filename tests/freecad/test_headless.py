@@ -901,7 +901,7 @@ class HeadlessTest(unittest.TestCase):
 
     def test_fit_of_a_whole_part_meets_the_target(self):
         """Fit of a whole part (a PartDesign plate with a hole) as `sagitta fit PART`: uniform Segments and
-        an EdgeTolerance of half the target, set in one Undo step; Validate of the refitted feature then
+        an EdgeTolerance (half the target or the coarser one the fit kept), set in one Undo step; Validate of the refitted feature then
         certifies every face with the fit's certified error, <= the target; Undo restores the old values."""
         doc = FreeCAD.newDocument("FitPart")
         doc.UndoMode = 1
@@ -915,7 +915,8 @@ class HeadlessTest(unittest.TestCase):
         self.assertLessEqual(result["certified_error"], target)
         self.assertEqual((obj.Scheme, obj.Segments, obj.EdgeTolerance, obj.TargetError),
                          ("uniform", result["segments"], result["edge_tolerance"], target))
-        self.assertEqual(obj.EdgeTolerance, target / 2)
+        # E / 2, or the coarser tolerance the fit's last phase kept (docs/FITTING.md).
+        self.assertIn(obj.EdgeTolerance, [f * target for f in (0.5, 0.75, 1.0, 1.4, 2.0)])
         self.assertEqual(obj.Mesh.CountFacets, result["triangles"])
         self.assertEqual(doc.UndoCount, undo_count + 1)
         report = SagittaCore.validate_tessellation(obj)

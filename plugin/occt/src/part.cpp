@@ -552,6 +552,9 @@ struct PartBuilder {
   const std::vector<std::vector<double>>& extra;
   std::map<int, std::vector<double>> crossing;
   const std::vector<EdgePlan>& plans;
+  // Ears to split (cdt_without_ears), by their corners' positions: the triangles two faces both
+  // made in an earlier pass (a triangle's vertex ids change between passes, its corners do not).
+  const std::set<std::array<double, 9>>* split_ears = nullptr;
 
   uint32_t add_vertex(const Vec3& p) {
     out.mesh.positions.push_back(p);
@@ -1142,10 +1145,25 @@ bool try_keep_whole_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, co
   return true;
 }
 
+// The corners' positions of a triangle, sorted: the key of PartBuilder::split_ears.
+std::array<double, 9> corner_key(const PartBuilder& b, std::array<uint32_t, 3> tri) {
+  std::sort(tri.begin(), tri.end(), [&](uint32_t x, uint32_t y) {
+    const Vec3 &p = b.out.mesh.positions[x], &q = b.out.mesh.positions[y];
+    return std::tie(p.x, p.y, p.z) < std::tie(q.x, q.y, q.z);
+  });
+  std::array<double, 9> key;
+  for (int k = 0; k < 3; ++k)
+    for (int c = 0; c < 3; ++c)
+      key[static_cast<size_t>(3 * k + c)] = b.out.mesh.positions[tri[static_cast<size_t>(k)]][c];
+  return key;
+}
+
 // The CDT of the face's points and constraints (the first segments.size() are the loop chords).
 // An "ear": a CDT triangle whose three corners are samples of one edge. Both faces of a tangent edge
-// (a fillet meeting a plane) may make the same ear, and their triangles would then coincide; a point
-// at the ear's centre (on the surface) splits it, and the CDT is made again (at most 4 times).
+// (a fillet meeting a plane) may make the same ear, and their triangles would then coincide: an ear
+// that did so in an earlier pass (b.split_ears) gets a point at its centre (on the surface), and
+// the CDT is made again (at most 4 times). Other ears stay (splitting every ear of a plane's outer
+// arcs cost UKI60998 a third more triangles).
 detail::CdtResult cdt_without_ears(PartBuilder& b, const FaceGeometry& g,
                                    const std::vector<std::array<uint32_t, 2>>& segments,
                                    const std::vector<int>& segment_edge,
@@ -1169,6 +1187,7 @@ detail::CdtResult cdt_without_ears(PartBuilder& b, const FaceGeometry& g,
       const auto& t = cdt.triangles[c];
       for (int e : point_edges[t[0]]) {
         if (!has(t[1], e) || !has(t[2], e)) continue;
+        if (!b.split_ears || !b.split_ears->count(corner_key(b, {vertex[t[0]], vertex[t[1]], vertex[t[2]]}))) break;
         const Vec2 centre = (cdt.points[t[0]] + cdt.points[t[1]] + cdt.points[t[2]]) / 3.0;
         points.push_back(centre);
         vertex.push_back(b.add_vertex(eval_uv(g, centre / scale)));
@@ -1537,14 +1556,26 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
     if (!split_crossing_chords(b, extra, faces)) break;
   }
   const std::vector<PartSolid> solids = solid_facts(x, options.solid_facts);
+  std::set<std::array<double, 9>> split_ears;
   for (int pass = 0;; ++pass) {
     out = PartMesh();
     out.name = name;
     out.model.name = name;
     out.solids = solids;
     PartBuilder b{options, x, geometry, out, {}, {}, {}, extra, {}, plans};
+    b.split_ears = &split_ears;
     build_part(b);
-    if (b.crossing.empty() || pass == 8) break;
+    // Triangles that two faces both made (ears of one edge on both sides): split next pass.
+    bool new_ears = false;
+    std::map<std::array<uint32_t, 3>, uint32_t> first_face;
+    for (size_t t = 0; t < out.mesh.triangles.size(); ++t) {
+      std::array<uint32_t, 3> key = out.mesh.triangles[t];
+      std::sort(key.begin(), key.end());
+      const auto [it, inserted] = first_face.emplace(key, out.triangle_face[t]);
+      if (!inserted && it->second != out.triangle_face[t])
+        new_ears = split_ears.insert(corner_key(b, out.mesh.triangles[t])).second || new_ears;
+    }
+    if ((b.crossing.empty() && !new_ears) || pass == 8) break;
     for (const auto& [e, ts] : b.crossing) extra[e].insert(extra[e].end(), ts.begin(), ts.end());
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
