@@ -147,9 +147,6 @@ struct FaceGeometry {
   // The uniform scheme's grid on every patch of the face: segments_u x segments_v, the larger equal
   // to `segments`, the other scaled by grid_aspect (1 x 1 for ESC: the edge density's unit).
   int segments_u = 1, segments_v = 1;
-  // Grid cells per patch span along U and V (segments_u, segments_v; on a face gridded whole,
-  // takes_face_grid, its cells over its spans): the edge density's unit.
-  double cells_u = 1.0, cells_v = 1.0;
 };
 
 double clamp(double x, double lo, double hi) { return std::min(std::max(x, lo), hi); }
@@ -387,127 +384,11 @@ std::pair<int, int> face_grid(int segments, const FaceBend& bend) {
   return {std::max(1, static_cast<int>(std::ceil(segments / aspect - 1e-9))), segments};
 }
 
-// A B-spline face of many knot spans takes the uniform scheme on its own parameter rectangle, not
-// on each Bézier patch: N x N cells per patch would put 2 N^2 triangles on every knot span, however
-// small or flat (bug24595's fillets: 144 spans each). At least this many patches.
-constexpr size_t kFaceGridPatches = 4;
-
-bool takes_face_grid(const FaceGeometry& g) {
-  return g.patches.size() >= kFaceGridPatches && g.identity_map &&
-         (g.report.surface_type == "BSplineSurface" || g.report.surface_type == "BezierSurface");
-}
-
-// How the whole face bends in its own parameters scaled to [0, 1] (face_bend of the patches, each
-// patch's second differences scaled by (range / span)^2, its twist by both ratios).
-FaceBend face_level_bend(const FaceGeometry& g) {
-  const std::vector<double>& ub = g.report.u_breaks;
-  const std::vector<double>& vb = g.report.v_breaks;
-  std::vector<BezierPatch> scaled = g.patches;
-  double au = 0.0, av = 0.0, twist = 0.0;
-  for (size_t p = 0; p < g.patches.size(); ++p) {
-    const int i = static_cast<int>(p) / g.nv, j = static_cast<int>(p) % g.nv;
-    const double ru = (ub.back() - ub.front()) / (ub[i + 1] - ub[i]),
-                 rv = (vb.back() - vb.front()) / (vb[j + 1] - vb[j]);
-    const BezierPatch& q = g.patches[p];
-    const int du = q.degree_u, dv = q.degree_v;
-    for (int a = 0; a <= du; ++a) {
-      for (int b = 0; b <= dv; ++b) {
-        if (a + 2 <= du)
-          au = std::max(au, ru * ru * du * (du - 1) * glm::length(q.at(a + 2, b) - 2.0 * q.at(a + 1, b) + q.at(a, b)));
-        if (b + 2 <= dv)
-          av = std::max(av, rv * rv * dv * (dv - 1) * glm::length(q.at(a, b + 2) - 2.0 * q.at(a, b + 1) + q.at(a, b)));
-        if (a + 1 <= du && b + 1 <= dv)
-          twist = std::max(twist, ru * rv * du * dv *
-                                      glm::length(q.at(a + 1, b + 1) - q.at(a + 1, b) - q.at(a, b + 1) + q.at(a, b)));
-      }
-    }
-  }
-  FaceBend bend;
-  if (!std::isfinite(au + av + twist)) return bend;
-  bend.aspect = au + twist > 0.0 ? std::sqrt((av + twist) / (au + twist)) : std::numeric_limits<double>::infinity();
-  if (!(au + av + twist > 0.0)) bend.aspect = 1.0;
-  return bend;
-}
-
-// The uniform scheme on the face's parameter rectangle: (nu + 1) x (nv + 1) points evaluated on the
-// patches (one point where the rectangle closes on itself across a periodic seam), two triangles
-// per cell oriented like the patches' (s, t) squares; each triangle records the patch holding its
-// centre and its corners in that patch's frame (outside [0, 1] where it crosses a knot line, as
-// emit_triangle does), so the certificate cuts it along the patch grid.
-void tessellate_face_grid(FaceGeometry& g, int nu, int nv) {
-  const std::vector<double>& ub = g.report.u_breaks;
-  const std::vector<double>& vb = g.report.v_breaks;
-  const auto closes = [](double lo, double hi, double period) {
-    return period > 0.0 && std::abs((hi - lo) - period) <= 1e-9 * period;
-  };
-  const bool closed_u = closes(ub.front(), ub.back(), g.u_period), closed_v = closes(vb.front(), vb.back(), g.v_period);
-  Tessellation& m = g.scheme;
-  m = Tessellation();
-  g.scheme_uv.clear();
-  const auto grid_uv = [&](int a, int b) {
-    return Vec2(a == nu ? ub.back() : ub.front() + (ub.back() - ub.front()) * a / nu,
-                b == nv ? vb.back() : vb.front() + (vb.back() - vb.front()) * b / nv);
-  };
-  const int rows = closed_u ? nu : nu + 1, cols = closed_v ? nv : nv + 1;
-  const auto id = [&](int a, int b) { return static_cast<uint32_t>((a % rows) * cols + (b % cols)); };
-  for (int a = 0; a < rows; ++a) {
-    for (int b = 0; b < cols; ++b) {
-      const Vec2 w = grid_uv(a, b);
-      const auto [patch, st] = locate_patch(g, w.x, w.y);
-      const auto e =
-          de_casteljau<double>(g.patches[static_cast<size_t>(patch)], clamp(st.x, 0.0, 1.0), clamp(st.y, 0.0, 1.0));
-      m.positions.emplace_back(e[0], e[1], e[2]);
-      m.surface_points.push_back({static_cast<uint32_t>(patch), st.x, st.y});
-      g.scheme_uv.push_back(w);
-    }
-  }
-  const auto emit = [&](std::array<std::pair<int, int>, 3> corners) {
-    if (g.reversed) std::swap(corners[1], corners[2]);  // (s, t) runs against U
-    std::array<uint32_t, 3> tri;
-    std::array<Vec2, 3> w;
-    for (size_t k = 0; k < 3; ++k)
-      tri[k] = id(corners[k].first, corners[k].second), w[k] = grid_uv(corners[k].first, corners[k].second);
-    const Vec2 centre = (w[0] + w[1] + w[2]) / 3.0;
-    const int patch = locate_patch(g, centre.x, centre.y).first;
-    const int i = patch / g.nv, j = patch % g.nv;
-    std::array<Vec2, 3> st;
-    for (size_t k = 0; k < 3; ++k) {
-      const double s = (w[k].x - ub[i]) / (ub[i + 1] - ub[i]), t = (w[k].y - vb[j]) / (vb[j + 1] - vb[j]);
-      st[k] = Vec2(g.reversed ? 1.0 - s : s, t);
-      if (w[k].x == ub.front() || w[k].x == ub.back() || w[k].y == vb.front() || w[k].y == vb.back())
-        g.scheme_sides.emplace(std::make_pair(w[k].x, w[k].y), tri[k]);
-    }
-    m.triangles.push_back(tri);
-    m.triangle_patch.push_back(static_cast<uint32_t>(patch));
-    m.triangle_uv.push_back(st);
-  };
-  for (int a = 0; a < nu; ++a) {
-    for (int b = 0; b < nv; ++b) {
-      emit({std::pair{a, b}, std::pair{a + 1, b}, std::pair{a + 1, b + 1}});
-      emit({std::pair{a, b}, std::pair{a + 1, b + 1}, std::pair{a, b + 1}});
-    }
-  }
-}
-
 void tessellate_face_patches(FaceGeometry& g, const SchemeSpec& scheme) {
   g.segments_u = g.segments_v = g.segments;
-  g.cells_u = g.cells_v = g.segments;
   g.cu = g.su;
   g.cv = g.sv;
-  g.scheme_sides.clear();
   if (g.patches.empty()) return;
-  if (scheme.scheme == Scheme::kUniform && scheme.patch_levels.empty() && takes_face_grid(g)) {
-    const auto [nu, nv] = face_grid(g.segments, face_level_bend(g));
-    tessellate_face_grid(g, nu, nv);
-    g.segments_u = nu;
-    g.segments_v = nv;
-    g.cells_u = double(nu) / g.nu;
-    g.cells_v = double(nv) / g.nv;
-    // The CDT measures the face so its grid cells keep the shape an N x N grid of the face gives them.
-    g.cu = g.su * g.nu * nu / g.segments;
-    g.cv = g.sv * g.nv * nv / g.segments;
-    return;
-  }
   Model model;
   model.patches = g.patches;
   SchemeSpec spec = scheme;
@@ -523,8 +404,8 @@ void tessellate_face_patches(FaceGeometry& g, const SchemeSpec& scheme) {
       aniso.segments_v = nv;
       try {
         g.scheme = tessellate(model, topology, aniso);
-        g.segments_u = g.cells_u = nu;
-        g.segments_v = g.cells_v = nv;
+        g.segments_u = nu;
+        g.segments_v = nv;
         // A flat face's cells keep the CDT's own metric (nothing to gain from stretching).
         if (nu != nv) g.cu = g.su * nu / g.segments, g.cv = g.sv * nv / g.segments;
       } catch (const InputError&) {  // a side shared along u by one patch and along v by another
@@ -593,7 +474,7 @@ double grid_length(const FaceGeometry& g, const TopoDS_Edge& edge) {
     const Vec2 UV = face_to_uv(g, q.X() + shift.x, q.Y() + shift.y);
     const auto [i, s] = locate_span(g.report.u_breaks, UV.x);
     const auto [j, t] = locate_span(g.report.v_breaks, UV.y);
-    const Vec2 grid((i + s) * g.cells_u, (j + t) * g.cells_v);
+    const Vec2 grid((i + s) * g.segments_u, (j + t) * g.segments_v);
     if (k > 0) length += glm::length(grid - prev);
     prev = grid;
   }

@@ -301,35 +301,6 @@ TEST(Part, UntrimmedFacesKeepTheSchemeTriangles) {
   }
 }
 
-// A B-spline face of many knot spans takes one uniform grid over its parameter rectangle (N along
-// the direction that bends more), not N x N cells on each span: bug24595's four trimmed fillets (144
-// spans each, periodic in v) at N = 8 make about a hundred triangles each instead of ~12,500, and
-// the part stays closed with no crack or T-junction (their certificate against OCCT's own
-// evaluation: PartBruteForce on the same file).
-TEST(Part, ManySpanBsplineFacesTakeOneGridOverTheFace) {
-  const std::string file = kData + "/cad/step/bug24595_281390.stp";
-  if (!std::filesystem::exists(file)) GTEST_SKIP() << "no " << file;
-  PartOptions options;
-  options.scheme.scheme = Scheme::kUniform;
-  options.scheme.segments = 8;
-  const PartMesh part = mesh_part_file(file, options);
-  int gridded = 0;
-  for (const PartFace& f : part.faces) {
-    if (f.surface_type != "BSplineSurface" || f.patch_count < 4) continue;
-    ++gridded;
-    EXPECT_EQ(std::max(f.segments_u, f.segments_v), 8) << f.name;
-    EXPECT_GT(f.triangles, 0u) << f.name;
-    if (f.patch_count >= 100) EXPECT_LT(f.triangles, 2u * 8 * 8 * 4) << f.name;  // not per span
-  }
-  EXPECT_EQ(gridded, 16);
-  const std::vector<SolidCheck> checks = check_solids(part.mesh, part.triangle_solid, part.boundary_edges);
-  for (const SolidCheck& c : checks) {
-    EXPECT_EQ(c.crack_edges, 0u);
-    EXPECT_EQ(c.t_junctions, 0u);
-    if (c.solid >= 0) EXPECT_TRUE(c.closed);
-  }
-}
-
 // An open shell's free edges are the model's boundary, never cracks.
 TEST(Part, OpenShellRimIsModelBoundary) {
   if (kFixtures.empty()) GTEST_SKIP() << "no FreeCAD (freecadcmd) to build the fixtures";

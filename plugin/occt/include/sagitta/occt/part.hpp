@@ -71,8 +71,7 @@ struct PartFace {
   int segments = 0;               // uniform: the scheme's segments per patch side on this face (0: esc)
   // uniform: the grid every patch of the face is sampled on, segments_u x segments_v: `segments`
   // along the direction that bends more, fewer along one that bends less (a cylinder's rulings take
-  // one), 1 x 1 on a flat face (0 x 0: esc). A B-spline face of 4 or more knot spans is sampled on
-  // one such grid over its whole parameter rectangle instead (its triangles may cross knot lines).
+  // one), 1 x 1 on a flat face (0 x 0: esc).
   int segments_u = 0, segments_v = 0;
   uint64_t triangles = 0;         // emitted triangles of the face
   uint64_t scheme_triangles = 0;  // of those, the scheme's own triangles kept unchanged
