@@ -144,8 +144,8 @@ struct FaceGeometry {
   std::map<std::pair<double, double>, uint32_t> scheme_sides;
   int solid = -1;
   int segments = 1;  // the scheme's segments per patch side on this face (ESC: 1, the edge density's unit)
-  // The uniform scheme's grid on every patch of the face: segments_u x segments_v, the larger equal
-  // to `segments`, the other scaled by grid_aspect (1 x 1 for ESC: the edge density's unit).
+  // The uniform scheme's grid on every patch of the face: segments_u x segments_v (face_grid: the
+  // larger equal to `segments`, 1 x 1 when flat; 1 x 1 for ESC: the edge density's unit).
   int segments_u = 1, segments_v = 1;
 };
 
@@ -397,21 +397,17 @@ void tessellate_face_patches(FaceGeometry& g, const SchemeSpec& scheme) {
   const Topology topology = build_topology(model);
   if (spec.scheme == Scheme::kUniform && spec.patch_levels.empty()) {
     const auto [nu, nv] = face_grid(g.segments, face_bend(g.patches));
-    if (nu != nv || nu != g.segments) {
-      SchemeSpec aniso = spec;
-      aniso.level = -1;
-      aniso.segments = nu;
-      aniso.segments_v = nv;
-      try {
-        g.scheme = tessellate(model, topology, aniso);
-        g.segments_u = nu;
-        g.segments_v = nv;
-        // A flat face's cells keep the CDT's own metric (nothing to gain from stretching).
-        if (nu != nv) g.cu = g.su * nu / g.segments, g.cv = g.sv * nv / g.segments;
-      } catch (const InputError&) {  // a side shared along u by one patch and along v by another
-        g.scheme = tessellate(model, topology, spec);
-      }
-    } else {
+    SchemeSpec grid = spec;
+    grid.level = -1;
+    grid.segments = nu;
+    grid.segments_v = nv;
+    try {
+      g.scheme = tessellate(model, topology, grid);
+      g.segments_u = nu;
+      g.segments_v = nv;
+      // A flat face's cells keep the CDT's own metric (nothing to gain from stretching).
+      if (nu != nv) g.cu = g.su * nu / g.segments, g.cv = g.sv * nv / g.segments;
+    } catch (const InputError&) {  // a side shared along u by one patch and along v by another
       g.scheme = tessellate(model, topology, spec);
     }
   } else {
