@@ -127,6 +127,56 @@ TEST(Certify, PlanarBilinearPatchIsExact) {
   }
 }
 
+// A planar cubic x linear patch with one side collapsed to a point (a B-spline "face" of
+// bearing.iges): the surface is a plane region bounded by a cubic arc, the mesh a fan of chords of
+// that arc, so the distance is zero inside and the chords' sagitta at the arc. Leaves where the
+// distance is ~0 must not refine to the depth budget to get below the estimate (2,097,144 leaves
+// for the 20 triangles before the two-pass refinement); the interval must stay tight and hold the
+// exact value, found here by sampling the arc densely against the mesh in long double.
+TEST(Certify, PlanarFanOfChordsStopsRefiningWhereTheDistanceIsZero) {
+  Model model;
+  BezierPatch p;
+  p.degree_u = 3;
+  p.degree_v = 1;
+  const Vec3 arc[4] = {Vec3(0, 3, 1), Vec3(1.7, 3, 1), Vec3(3.1, 1.7, 1), Vec3(3.1, 0, 1)};
+  for (int i = 0; i <= 3; ++i) {
+    p.points.push_back(Vec3(0, 0, 1));  // v = 0: collapsed
+    p.points.push_back(arc[i]);
+  }
+  model.patches.push_back(p);
+  for (int n : {2, 3, 5}) {
+    const Tessellation mesh = uniform(model, n);
+    const DistanceReport r = certify_distance(model, mesh);
+    // Exact: the arc's largest distance to the mesh (chords of a convex arc lie inside the region).
+    LD exact = 0;
+    for (int k = 0; k <= 20000; ++k) {
+      LVec s, su, sv;
+      extreme::evaluate(p, LVec{}, LD(k) / 20000, 1, s, su, sv);
+      LD best = INFINITY;
+      for (const Triangle& t : mesh.triangles) {
+        const Vec3 a = mesh.positions[t[0]], b = mesh.positions[t[1]], c = mesh.positions[t[2]];
+        for (const auto& [e0, e1] : {std::pair{a, b}, std::pair{b, c}, std::pair{c, a}}) {
+          const LVec d = extreme::to_lvec(e1) - extreme::to_lvec(e0), w = s - extreme::to_lvec(e0);
+          const LD len2 = dot(d, d);
+          const LD x = len2 > 0 ? std::clamp(dot(w, d) / len2, LD(0), LD(1)) : LD(0);
+          const LVec q{w.x - x * d.x, w.y - x * d.y, w.z - x * d.z};
+          best = std::min(best, std::sqrt(dot(q, q)));
+        }
+      }
+      exact = std::max(exact, best);
+    }
+    std::cout << "[planar fan N=" << n << "] exact " << static_cast<double>(exact) << " in [" << r.hausdorff.lower
+              << ", " << r.hausdorff.upper << "], " << r.leaves << " leaves, " << mesh.triangles.size()
+              << " triangles\n";
+    ASSERT_TRUE(r.hausdorff.certified) << r.not_certified_reason << r.coverage_note;
+    EXPECT_LE(r.hausdorff.lower, static_cast<double>(exact) * (1 + 1e-9));
+    EXPECT_GE(r.hausdorff.upper, static_cast<double>(exact) * (1 - 1e-9));
+    EXPECT_LE(r.hausdorff.ratio(), 1.1);
+    EXPECT_EQ(r.budget_exhausted, 0u);
+    EXPECT_LT(r.leaves, 1000u * mesh.triangles.size());
+  }
+}
+
 // Exact Hausdorff distance between the parabola z = c x^2 on [-1, 1] and its chord polyline with N
 // uniform segments, by nested 1-D searches in long double (independent of the validator).
 LD parabola_hausdorff(LD c, int N) {

@@ -1429,6 +1429,7 @@ struct Refinement {
   const std::vector<std::vector<uint32_t>>& near;
   const detail::MeshDistance& mesh_distance;
   double tau;
+  int max_depth;  // of the subdivision per triangle (the options' or a shallower first pass's)
   // Triangles whose cheap bound is at most `settled` keep it: no refinement could raise the
   // overall bound above the largest estimate through them.
   const std::vector<double>& cheap;
@@ -1478,16 +1479,22 @@ void vertex_rings(const Tessellation& mesh, std::vector<uint32_t>& start, std::v
   }
 }
 
-// Pass 2: every triangle refined; each keeps the larger of its pass-1 estimate and the refinement's
-// as the candidate for the lower bounds.
-std::vector<TriangleResult> refine_triangles(const Refinement& rf, const Estimates& est) {
+// Depth of the first refinement pass (see certify_conditioned).
+constexpr int kFirstPassDepth = 4;
+
+// Pass 2: every triangle refined (only those with redo[t] set when redo is given, the others keep
+// their results); each keeps the larger of its pass-1 estimate and the refinement's as the candidate
+// for the lower bounds.
+void refine_triangles(const Refinement& rf, const Estimates& est, std::vector<TriangleResult>& results,
+                      const std::vector<char>* redo = nullptr) {
   const Tessellation& mesh = rf.mesh;
   const CertifyOptions& options = rf.options;
   const size_t count = mesh.triangles.size();
-  std::vector<TriangleResult> results(count);
+  results.resize(count);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 64), [&](const tbb::blocked_range<size_t>& range) {
     Scratch s;
     for (size_t t = range.begin(); t != range.end(); ++t) {
+      if (redo && !(*redo)[t]) continue;
       if (rf.cheap[t] <= rf.settled) {
         results[t] = TriangleResult{};
         results[t].m2s = results[t].s2m = rf.cheap[t];
@@ -1510,7 +1517,7 @@ std::vector<TriangleResult> refine_triangles(const Refinement& rf, const Estimat
           return true;
         };
         results[t] = refine_triangle(rf.pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], triangle_corners(mesh, t),
-                                     rf.tau, options.target_ratio, options.max_depth, s, false, nullptr, nearest,
+                                     rf.tau, options.target_ratio, rf.max_depth, s, false, nullptr, nearest,
                                      OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]},
                                      options.in_domain && !options.domain_contains_patches, rf.cheap[t]);
       }
@@ -1524,16 +1531,17 @@ std::vector<TriangleResult> refine_triangles(const Refinement& rf, const Estimat
       }
     }
   });
-  return results;
 }
 
-// Dropped degenerate triangles next to collapsed sides: surface->mesh only.
-std::vector<TriangleResult> refine_holes(const Refinement& rf, const std::vector<Hole>& holes,
-                                         const std::vector<double>& cheap) {
+// Dropped degenerate triangles next to collapsed sides: surface->mesh only (only those with redo[i]
+// set when redo is given).
+void refine_holes(const Refinement& rf, const std::vector<Hole>& holes, const std::vector<double>& cheap,
+                  std::vector<TriangleResult>& hole_results, const std::vector<char>* redo = nullptr) {
   const CertifyOptions& options = rf.options;
   const auto nearest = [&](const Vec3& p, std::array<Vec3, 3>& tri) { return rf.nearest(p, tri); };
-  std::vector<TriangleResult> hole_results(holes.size());
+  hole_results.resize(holes.size());
   tbb::parallel_for(size_t(0), holes.size(), [&](size_t i) {
+    if (redo && !(*redo)[i]) return;
     if (cheap[i] <= rf.settled) {  // the surface over the hole is within cheap[i] of its mesh edge
       hole_results[i].s2m = cheap[i];
       hole_results[i].leaves = 1;
@@ -1541,9 +1549,8 @@ std::vector<TriangleResult> refine_holes(const Refinement& rf, const std::vector
     }
     Scratch s;
     hole_results[i] = refine_triangle(rf.pd[holes[i].patch], holes[i].uv, holes[i].X, rf.tau, options.target_ratio,
-                                      options.max_depth, s, true, &holes[i].neighbours, nearest);
+                                      rf.max_depth, s, true, &holes[i].neighbours, nearest);
   });
-  return hole_results;
 }
 
 // The upper bounds of both directions over the triangles (and holes); fills the report's
@@ -1719,10 +1726,48 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
   const detail::MeshDistance mesh_distance(mesh, near_queries.empty() ? nullptr : &near_queries);
   std::vector<uint32_t> ring_start, ring_triangles;
   vertex_rings(mesh, ring_start, ring_triangles);
-  const Refinement rf{model,         mesh, options, pd,      patch_boxes, near,
-                      mesh_distance, tau,  cheap,   settled, ring_start,  ring_triangles};
-  const std::vector<TriangleResult> results = refine_triangles(rf, est);
-  const std::vector<TriangleResult> hole_results = refine_holes(rf, holes, hole_cheap);
+  // First to a shallow depth: a triangle done there has its final result (the depth budget did
+  // not bind). The others are refined again to the full depth, against tau raised to target_ratio
+  // times the largest distance the first pass saw: where the estimates miss the worst error (a
+  // planar face whose error is a chord's sagitta at its curved side, zero inside), a leaf whose
+  // distance is ~0 would otherwise refine to the depth budget to get below the estimate.
+  Refinement rf{model,
+                mesh,
+                options,
+                pd,
+                patch_boxes,
+                near,
+                mesh_distance,
+                tau,
+                std::min(options.max_depth, kFirstPassDepth),
+                cheap,
+                settled,
+                ring_start,
+                ring_triangles};
+  std::vector<TriangleResult> results, hole_results;
+  refine_triangles(rf, est, results);
+  refine_holes(rf, holes, hole_cheap, hole_results);
+  if (rf.max_depth < options.max_depth) {
+    double seen = 0.0;
+    std::vector<char> redo(results.size(), 0), redo_holes(hole_results.size(), 0);
+    bool any = false;
+    for (size_t t = 0; t < results.size(); ++t) {
+      seen = std::max({seen, results[t].s2m_est, results[t].m2s_est});
+      redo[t] = results[t].exhausted ? 1 : 0;
+      any = any || results[t].exhausted;
+    }
+    for (size_t i = 0; i < hole_results.size(); ++i) {
+      seen = std::max(seen, hole_results[i].s2m_est);
+      redo_holes[i] = hole_results[i].exhausted ? 1 : 0;
+      any = any || hole_results[i].exhausted;
+    }
+    if (any) {
+      rf.max_depth = options.max_depth;
+      rf.tau = std::max(tau, options.target_ratio * seen);
+      refine_triangles(rf, est, results, &redo);
+      refine_holes(rf, holes, hole_cheap, hole_results, &redo_holes);
+    }
+  }
   const Uppers upper = collect_uppers(results, hole_results, report);
   report.rounding = worst_triangle_rounding(mesh, pd, report.triangle_upper);
   if (options.in_domain) {
