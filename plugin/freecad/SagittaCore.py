@@ -201,7 +201,8 @@ def part_parameters(params):
     if params["scheme"] == "pn":
         raise SagittaError("pn is a scheme for triangle meshes; tessellate a part with uniform or esc")
     return {k: v for k, v in params.items()
-            if k in ("scheme", "level", "segments", "threshold", "edge_tolerance", "face_segments")}
+            if k in ("scheme", "level", "segments", "threshold", "edge_tolerance", "face_segments",
+                     "face_edge_tolerance")}
 
 
 def mesh_part(links, name, params):
@@ -447,6 +448,9 @@ class TessellationFeature:
         add("App::PropertyIntegerList", "FaceSegments", "Sagitta",
             "Whole parts, uniform: segments per patch side of each face (Face 1 first), instead of Segments "
             "where > 0. Set by Fit (each face its own density); empty: Segments on every face")
+        add("App::PropertyFloatList", "FaceEdgeTolerances", "Sagitta",
+            "Whole parts: a tighter edge tolerance for the edges of each face (Face 1 first) where > 0. Set by "
+            "Fit on faces whose certified interval the slivers at their trimming curves widened; empty: none")
         if "Scheme" not in existing:
             obj.Scheme = SCHEMES
         for kind, name, doc in STAT_PROPERTIES:
@@ -597,7 +601,8 @@ def apply_with_progress(obj, values, edit=True):
 
 
 # The parameters a user edits; the fit sets them too.
-PARAMETERS = ("Scheme", "Level", "Segments", "BaseLevel", "Threshold", "EdgeTolerance", "FaceSegments")
+PARAMETERS = ("Scheme", "Level", "Segments", "BaseLevel", "Threshold", "EdgeTolerance", "FaceSegments",
+              "FaceEdgeTolerances")
 NOT_VALIDATED = "not validated"
 
 
@@ -630,13 +635,19 @@ def scheme_parameters(obj):
         if any(n < 0 for n in face_segments):
             raise SagittaError("FaceSegments must be >= 0, got %r" % (face_segments,))
         params["face_segments"] = face_segments
+    face_edge_tolerance = list(getattr(obj, "FaceEdgeTolerances", []))
+    if face_edge_tolerance:  # whole parts only, as edge_tolerance
+        if not all(t >= 0.0 and math.isfinite(t) for t in face_edge_tolerance):
+            raise SagittaError("FaceEdgeTolerances must be finite numbers >= 0, got %r" % (face_edge_tolerance,))
+        params["face_edge_tolerance"] = face_edge_tolerance
     return params
 
 
 def tessellate_model(model, params):
     """Runs a scheme; invalid parameters become SagittaError with the library's message."""
     try:
-        return _sagitta.tessellate(model, **{k: v for k, v in params.items() if k not in ("edge_tolerance", "face_segments")})
+        return _sagitta.tessellate(model, **{k: v for k, v in params.items()
+                                             if k not in ("edge_tolerance", "face_segments", "face_edge_tolerance")})
     except (ValueError, MemoryError) as error:
         raise library_error(error)
 
@@ -1209,8 +1220,8 @@ def check_target_error(target_error):
 def fit_part_tessellation(obj, target_error):
     """A whole part's fit (`sagitta fit PART`, docs/FITTING.md): uniform segments per patch side on
     each face and an edge tolerance, the fewest triangles whose certified error (every face) is <=
-    target. Sets Scheme uniform, Segments (the largest face's), FaceSegments, EdgeTolerance and
-    TargetError in one transaction; the recompute's mesh is the one the fit certified (the mesher is
+    target. Sets Scheme uniform, Segments (the largest face's), FaceSegments, EdgeTolerance,
+    FaceEdgeTolerances and TargetError in one transaction; the recompute's mesh is the one the fit certified (the mesher is
     deterministic). SagittaError, nothing changed, when not met."""
     text, label = part_brep_text(obj.Source), obj.Label
     depth = preferences()["max_depth"]
@@ -1225,7 +1236,8 @@ def fit_part_tessellation(obj, target_error):
     if not result["met"]:
         raise SagittaError("%s: the whole part did not meet the target %g: %s" % (label, target_error, result["reason"]))
     edit_tessellation(obj, Scheme="uniform", Segments=result["segments"], EdgeTolerance=result["edge_tolerance"],
-                      FaceSegments=result.get("face_segments", []), TargetError=target_error)
+                      FaceSegments=result.get("face_segments", []),
+                      FaceEdgeTolerances=result.get("face_edge_tolerance", []), TargetError=target_error)
     result["scheme"] = "uniform"
     return result
 

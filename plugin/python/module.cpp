@@ -604,18 +604,20 @@ void bind_part(py::module_& m) {
       "mesh_part_brep",
       [](const std::string& text, const std::string& name, const std::string& scheme, int level,
          std::optional<int> segments, std::optional<double> threshold, double edge_tolerance,
-         const std::vector<int>& face_segments) {
+         const std::vector<int>& face_segments, const std::vector<double>& face_edge_tolerance) {
         occt::PartOptions options = part_options(scheme, level, segments, threshold, edge_tolerance);
         options.face_segments = face_segments;
+        options.face_edge_tolerance = face_edge_tolerance;
         py::gil_scoped_release release;
         return occt::mesh_part_brep_string(text, name, options);
       },
       py::arg("brep_text"), py::arg("name"), py::arg("scheme") = "uniform", py::arg("level") = 2,
       py::arg("segments") = py::none(), py::arg("threshold") = py::none(), py::arg("edge_tolerance") = 0.0,
-      py::arg("face_segments") = std::vector<int>{},
+      py::arg("face_segments") = std::vector<int>{}, py::arg("face_edge_tolerance") = std::vector<double>{},
       "mesh_part on a shape's BREP text (FreeCAD: shape.exportBrepToString()); `name` names it in messages; "
       "face_segments (uniform): segments per patch side of each face by face index, overriding `segments` "
-      "where > 0 (fit_part_brep's choice)");
+      "where > 0; face_edge_tolerance: a tighter edge tolerance for each face's edges where > 0 (both "
+      "fit_part_brep's choice)");
   m.def(
       "mesh_on_part_brep",
       [](const std::string& text, const std::string& name, const Tessellation& mesh) {
@@ -628,7 +630,8 @@ void bind_part(py::module_& m) {
   m.def(
       "fit_part_brep",
       [](const std::string& text, const std::string& name, double target_error, int max_depth) {
-        if (!(target_error > 0.0) || !std::isfinite(target_error)) throw InputError("the target error must be a positive number");
+        if (!(target_error > 0.0) || !std::isfinite(target_error))
+          throw InputError("the target error must be a positive number");
         if (max_depth < 0 || max_depth > 10) throw InputError("max_depth must be in 0..10");
         nlohmann::json doc;
         {
@@ -645,7 +648,8 @@ void bind_part(py::module_& m) {
       },
       py::arg("brep_text"), py::arg("name"), py::arg("target_error"), py::arg("max_depth") = 8,
       "Fit a whole part (BREP text) to a certified target error, as `sagitta fit PART --json` (uniform segments "
-      "and an edge tolerance; met, reason, segments, edge_tolerance, triangles, certified_error, steps)");
+      "and an edge tolerance; met, reason, segments, face_segments, edge_tolerance, face_edge_tolerance, triangles, "
+      "certified_error, steps)");
   m.def(
       "certify_part",
       [](const occt::PartMesh& part, int max_depth) {

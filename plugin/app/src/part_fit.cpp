@@ -71,7 +71,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   // certified at some N (a (U, V) triangle degenerate at a coarse N, a p-curve with no exact Bézier
   // form at any N) does not stop it, but the fit is met only when every face is certified.
   const auto attempt = [&](int segments, const std::vector<int>& face_segments, PartRun& run,
-                           double edge_tolerance = 0.0) {
+                           double edge_tolerance = 0.0, const std::vector<double>& face_edge_tolerance = {}) {
     const Stopwatch step;
     if (progress) progress(static_cast<int>(fit.steps.size()) + 1, segments);
     SchemeSpec scheme;
@@ -80,6 +80,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     if (!(edge_tolerance > 0.0)) edge_tolerance = fit.edge_tolerance;
     occt::PartOptions options = part_options(scheme, edge_tolerance);
     options.face_segments = face_segments;
+    options.face_edge_tolerance = face_edge_tolerance;
     run.part = mesher(options);
     run.validation = validate_part(run.part, check_options);
     run.certificate = certify_part(run.part, certify);
@@ -250,6 +251,50 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
       if (fewer) fit.edge_tolerance = factor * target;
       break;
     }
+    // 4. Tightness: a face whose interval is wider than the ratio limits because of the slivers
+    //    between its trimming curves and their chords (the certificate adds the sliver term to the
+    //    triangles' bound, docs/VALIDATION.md) gets a tighter edge tolerance, scaled by how much the
+    //    sliver term must shrink (it follows the chords' deviation, which follows the tolerance).
+    //    Kept while the target is still met and fewer faces are over the limits; costs triangles
+    //    along those faces' edges only.
+    const double exact = 1e-9 * model_box(best.part.model).diagonal();
+    const auto over_limits = [&](const PartRun& r) {
+      int over = 0;
+      for (size_t f = 0; f < r.certificate.faces.size(); ++f) {
+        const FaceCertificate& c = r.certificate.faces[f];
+        const double limit = r.part.faces[f].trimmed ? kFitRatioTrimmed : kFitRatioUntrimmed;
+        over += c.certified && c.upper > exact && c.upper > limit * c.hausdorff.lower ? 1 : 0;
+      }
+      return over;
+    };
+    std::vector<double> face_tolerance, current_tolerance;
+    PartRun current = best;
+    for (int round = 0; round < 4 && over_limits(best) > 0; ++round) {
+      std::vector<double> trial_tolerance = current_tolerance;
+      trial_tolerance.resize(current.certificate.faces.size(), 0.0);
+      bool changed = false;
+      for (size_t f = 0; f < current.certificate.faces.size(); ++f) {
+        const FaceCertificate& c = current.certificate.faces[f];
+        const double limit = current.part.faces[f].trimmed ? kFitRatioTrimmed : kFitRatioUntrimmed;
+        if (!c.certified || !(c.upper > exact) || c.upper <= limit * c.hausdorff.lower || !(c.sliver > 0.0)) continue;
+        const double sliver_goal = 0.9 * limit * c.hausdorff.lower - (c.upper - c.sliver);
+        if (!(sliver_goal > 0.0)) continue;  // the triangles' own bound is too wide: not the slivers
+        const double now = trial_tolerance[f] > 0.0 ? trial_tolerance[f] : fit.edge_tolerance;
+        trial_tolerance[f] = now * std::clamp(sliver_goal / c.sliver, 0.1, 0.9);
+        changed = true;
+      }
+      if (!changed) break;
+      PartRun tighter;
+      attempt(best_n, best_segments, tighter, fit.edge_tolerance, trial_tolerance);
+      if (!all_meet(tighter)) break;
+      current = std::move(tighter);
+      current_tolerance = std::move(trial_tolerance);
+      if (over_limits(current) < over_limits(best)) {
+        best = current;
+        face_tolerance = current_tolerance;
+      }
+    }
+    fit.face_edge_tolerance = face_tolerance;
     return finish(best_n, best_segments, std::move(best));
   }
   // No per-face run met every face and the uniform run did not either: the uniform doubling goes on.
@@ -271,6 +316,7 @@ nlohmann::json part_fit_json(const PartFit& fit) {
   j["segments"] = fit.segments;
   if (!fit.face_segments.empty()) j["face_segments"] = fit.face_segments;
   j["edge_tolerance"] = fit.edge_tolerance;
+  if (!fit.face_edge_tolerance.empty()) j["face_edge_tolerance"] = fit.face_edge_tolerance;
   j["triangles"] = fit.run.part.mesh.triangles.size();
   j["certified"] = fit.run.certificate.all_certified;
   j["certified_error"] = number_or_null(fit.run.certificate.all_certified ? fit.run.certificate.distance.hausdorff.upper : kInf);

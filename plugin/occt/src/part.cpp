@@ -678,6 +678,12 @@ EdgePlan plan_edge(const PartOptions& options, const ShapeIndex& x, const std::v
     for (int k = 0; k <= n; ++k) plan.t.push_back(k == n ? last : first + (last - first) * k / n);
   }
   double tol = options.edge_tolerance;
+  for (int f : faces) {
+    const double face_tol = f < static_cast<int>(options.face_edge_tolerance.size())
+                                ? options.face_edge_tolerance[static_cast<size_t>(f)]
+                                : 0.0;
+    if (face_tol > 0.0) tol = tol > 0.0 ? std::min(tol, face_tol) : face_tol;
+  }
   // ESC's threshold refines the edges it did not sample itself; an owned edge keeps the owner's ESC
   // side vertices (refining them would take the owner off its own triangles, into the loops route).
   if (options.scheme.scheme == Scheme::kEsc && options.scheme.threshold > 0.0 && !owned)
@@ -1369,6 +1375,10 @@ void check_scheme(const PartOptions& options, const std::string& name) {
   }
   for (int n : options.face_segments) {
     if (n < 0 || n > 4096) throw InputError(name + ": segments per face must be in 0..4096, got " + std::to_string(n));
+  }
+  for (double tol : options.face_edge_tolerance) {
+    if (!(tol >= 0.0) || !std::isfinite(tol))
+      throw InputError(name + ": a face's edge tolerance must be a finite number >= 0, got " + std::to_string(tol));
   }
 }
 

@@ -159,6 +159,10 @@ struct PartFit {
   // empty when every face took `segments`.
   std::vector<int> face_segments;
   double edge_tolerance = 0.0;
+  // Tighter edge tolerances of some faces (by face index, 0: edge_tolerance), given to the faces
+  // whose certified interval the slivers at their trimming curves widened past the ratio limits
+  // (kFitRatioTrimmed, kFitRatioUntrimmed); empty when none was needed.
+  std::vector<double> face_edge_tolerance;
   PartRun run;                 // the chosen mesh with its validation and certificate
   struct Step {
     int segments = 0;
@@ -176,6 +180,10 @@ struct PartFit {
 };
 
 inline constexpr int kMaxFitSegments = 256;
+// The tightness the fit aims for on each face, upper / lower of its certified interval (issue 15):
+// trimmed faces, untrimmed faces.
+inline constexpr double kFitRatioTrimmed = 1.5;
+inline constexpr double kFitRatioUntrimmed = 1.1;
 
 // `mesher` meshes the part with the given options (the file or a BREP text). progress (may be empty)
 // is told each step: (step, segments).

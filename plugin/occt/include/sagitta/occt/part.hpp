@@ -28,6 +28,11 @@ struct PartOptions {
   // scheme's level / segments where > 0 (the fit gives each face its own density). Shorter than the
   // face count: the remaining faces take the scheme's.
   std::vector<int> face_segments;
+  // > 0: a tighter edge tolerance for the edges of face f (by face index; an edge takes the smallest
+  // of the global one and those of its faces). The fit tightens the trimming curves of faces whose
+  // certified interval is widened by the slivers between curve and chords. Shorter than the face
+  // count: the remaining faces take edge_tolerance.
+  std::vector<double> face_edge_tolerance;
   CadOptions cad;
   // PartSolid::valid (BRepCheck_Analyzer) and ::volume (BRepGProp): OCCT's own facts about each
   // solid, for the reports; off, they stay false / 0 (they cost more than the tessellation on
