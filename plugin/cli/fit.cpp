@@ -29,6 +29,7 @@ struct FitCliOptions {
   bool per_edge_levels = false;
   bool relative = false;
   bool scheme_given = false;  // --scheme on the command line (whole parts default to uniform)
+  bool fewest = false;        // whole parts: no tightness pass
 };
 
 // The largest distance between two vertices' bounding-box corners of a coarse mesh of the part
@@ -53,11 +54,13 @@ void run_fit_part(const FitCliOptions& o, double target) {
   ProgressLine progress("sagitta fit");
   const app::PartFit fit = app::fit_part(
       [&](const occt::PartOptions& options) { return occt::mesh_part_file(o.input, options); }, target, certify,
-      [&](int step, int segments) { progress.update(step, 0, std::to_string(segments) + " segments (certifying)"); });
+      [&](int step, int segments) { progress.update(step, 0, std::to_string(segments) + " segments (certifying)"); },
+      !o.fewest);
   progress.clear();
   nlohmann::json doc = app::part_fit_json(fit);
   doc["input"] = o.input;
   doc["relative"] = o.relative;
+  doc["tightness_pass"] = !o.fewest;
   if (o.relative) doc["target_fraction"] = o.target_error;
   if (!o.out.empty() && fit.met) {
     io::write_mesh(fit.run.part.mesh, o.out);
@@ -88,6 +91,8 @@ void run_fit(const FitCliOptions& o) {
     run_fit_part(o, o.relative ? o.target_error * part_diagonal(o.input) : o.target_error);
     return;
   }
+  if (o.fewest)
+    throw InputError("--fewest applies to whole CAD parts only (a patch model's fit keeps the fewest triangles)");
   const Model model = load_model(o.input);
   const double target_error = o.relative ? o.target_error * model_box(model).diagonal() : o.target_error;
   const Topology topology = build_topology(model);
@@ -137,6 +142,9 @@ Command register_fit(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--target-error", o->target_error, "Largest certified Hausdorff distance allowed (model units)")->required();
   cmd->add_flag("--relative", o->relative, "--target-error is a fraction of the model's (or part's) bounding-box diagonal");
+  cmd->add_flag("--fewest", o->fewest,
+                "Whole CAD parts: keep the fewest triangles that meet the target, without the pass that refines faces "
+                "whose certified interval is wider than 1.5x (trimmed) or 1.1x (untrimmed) its lower bound");
   cmd->add_flag("--per-patch", o->per_patch, "Choose the parameter per patch (uniform levels, esc thresholds); crack-free");
   cmd->add_option("--json", o->json, "Write the fit (parameters, certified error, models, samples) here");
   cmd->add_option("--out", o->out, "Write the fitted mesh here (.obj, .ply, .stl)");

@@ -55,7 +55,7 @@ std::vector<std::vector<int>> face_neighbours(const occt::PartMesh& part) {
 }  // namespace
 
 PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& mesher, double target,
-                 const CertifyOptions& certify, const std::function<void(int, int)>& progress) {
+                 const CertifyOptions& certify, const std::function<void(int, int)>& progress, bool tighten) {
   if (!(target > 0.0) || !std::isfinite(target)) {
     throw InputError("the target error must be a positive number of model units, got " + std::to_string(target));
   }
@@ -254,9 +254,10 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     // 4. Tightness: a face whose interval is wider than the ratio limits because of the slivers
     //    between its trimming curves and their chords (the certificate adds the sliver term to the
     //    triangles' bound, docs/VALIDATION.md) gets a tighter edge tolerance, scaled by how much the
-    //    sliver term must shrink (it follows the chords' deviation, which follows the tolerance).
-    //    Kept while the target is still met and fewer faces are over the limits; costs triangles
-    //    along those faces' edges only.
+    //    sliver term must shrink (it follows the chords' deviation, which follows the tolerance); one
+    //    whose triangles' own bound is too wide gets a finer grid (N + max(1, N / 2): long coarse
+    //    triangles bound loosely). Up to 4 rounds, each from the last, while the target is met; the
+    //    run with the fewest faces over the limits is kept.
     const double exact = 1e-9 * model_box(best.part.model).diagonal();
     const auto over_limits = [&](const PartRun& r) {
       int over = 0;
@@ -268,31 +269,61 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
       return over;
     };
     std::vector<double> face_tolerance, current_tolerance;
+    std::vector<int> face_grid = best_segments, current_grid = best_segments;
+    if (current_grid.empty()) current_grid.assign(best.certificate.faces.size(), best_n);
     PartRun current = best;
-    for (int round = 0; round < 4 && over_limits(best) > 0; ++round) {
-      std::vector<double> trial_tolerance = current_tolerance;
-      trial_tolerance.resize(current.certificate.faces.size(), 0.0);
-      bool changed = false;
-      for (size_t f = 0; f < current.certificate.faces.size(); ++f) {
-        const FaceCertificate& c = current.certificate.faces[f];
-        const double limit = current.part.faces[f].trimmed ? kFitRatioTrimmed : kFitRatioUntrimmed;
-        if (!c.certified || !(c.upper > exact) || c.upper <= limit * c.hausdorff.lower || !(c.sliver > 0.0)) continue;
-        const double sliver_goal = 0.9 * limit * c.hausdorff.lower - (c.upper - c.sliver);
-        if (!(sliver_goal > 0.0)) continue;  // the triangles' own bound is too wide: not the slivers
-        const double now = trial_tolerance[f] > 0.0 ? trial_tolerance[f] : fit.edge_tolerance;
-        trial_tolerance[f] = now * std::clamp(sliver_goal / c.sliver, 0.1, 0.9);
-        changed = true;
+    std::vector<double> trial_tolerance;
+    std::vector<int> trial_grid;
+    bool pending = false;  // a trial with some faces' changes undone, to run as it is
+    for (int round = 0; tighten && round < 6 && over_limits(best) > 0; ++round) {
+      if (!pending) {
+        trial_tolerance = current_tolerance;
+        trial_tolerance.resize(current.certificate.faces.size(), 0.0);
+        trial_grid = current_grid;
+        bool changed = false;
+        for (size_t f = 0; f < current.certificate.faces.size(); ++f) {
+          const FaceCertificate& c = current.certificate.faces[f];
+          const double limit = current.part.faces[f].trimmed ? kFitRatioTrimmed : kFitRatioUntrimmed;
+          if (!c.certified || !(c.upper > exact) || c.upper <= limit * c.hausdorff.lower) continue;
+          const double sliver_goal = 0.9 * limit * c.hausdorff.lower - (c.upper - c.sliver);
+          if (c.sliver > 0.0 && sliver_goal > 0.0) {
+            const double now = trial_tolerance[f] > 0.0 ? trial_tolerance[f] : fit.edge_tolerance;
+            trial_tolerance[f] = now * std::clamp(sliver_goal / c.sliver, 0.1, 0.9);
+          } else {  // the triangles' own bound is too wide: not the slivers
+            trial_grid[f] = std::min(trial_grid[f] + std::max(1, trial_grid[f] / 2), kMaxFitSegments);
+          }
+          changed = true;
+        }
+        if (!changed) break;
       }
-      if (!changed) break;
+      pending = false;
       PartRun tighter;
-      attempt(best_n, best_segments, tighter, fit.edge_tolerance, trial_tolerance);
-      if (!all_meet(tighter)) break;
+      attempt(*std::max_element(trial_grid.begin(), trial_grid.end()), trial_grid, tighter, fit.edge_tolerance,
+              trial_tolerance);
+      if (!all_meet(tighter)) {
+        // The faces that now miss the target go back to their last values, and the rest is tried again.
+        current_tolerance.resize(trial_tolerance.size(), 0.0);
+        for (size_t f = 0; f < trial_grid.size(); ++f) {
+          if (face_meets(tighter, f)) continue;
+          if (trial_tolerance[f] != current_tolerance[f] || trial_grid[f] != current_grid[f]) pending = true;
+          trial_tolerance[f] = current_tolerance[f];
+          trial_grid[f] = current_grid[f];
+        }
+        if (!pending) break;
+        continue;
+      }
       current = std::move(tighter);
-      current_tolerance = std::move(trial_tolerance);
+      current_tolerance = trial_tolerance;
+      current_grid = trial_grid;
       if (over_limits(current) < over_limits(best)) {
         best = current;
         face_tolerance = current_tolerance;
+        face_grid = current_grid;
       }
+    }
+    if (face_grid != best_segments && !face_grid.empty()) {
+      best_segments = face_grid;
+      best_n = *std::max_element(face_grid.begin(), face_grid.end());
     }
     fit.face_edge_tolerance = face_tolerance;
     return finish(best_n, best_segments, std::move(best));

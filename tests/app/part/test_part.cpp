@@ -405,6 +405,20 @@ TEST(AppPart, FitTightensTheEdgesOfFacesOverTheRatioLimits) {
   again.face_edge_tolerance = fit.face_edge_tolerance;
   EXPECT_EQ(occt::mesh_part_file(path, again).mesh.positions, part.mesh.positions);
   expect_face_bounds_hold(part, fit.run.certificate);
+  // Without the pass (`sagitta fit --fewest`): fewer triangles, the same target met, faces over.
+  const app::PartFit fewest =
+      app::fit_part([&](const occt::PartOptions& options) { return occt::mesh_part_file(path, options); }, target,
+                    CertifyOptions{}, {}, false);
+  ASSERT_TRUE(fewest.met) << fewest.reason;
+  EXPECT_TRUE(fewest.face_edge_tolerance.empty());
+  EXPECT_LT(fewest.run.part.mesh.triangles.size(), part.mesh.triangles.size());
+  int over = 0;
+  for (size_t f = 0; f < fewest.run.part.faces.size(); ++f) {
+    const app::FaceCertificate& c = fewest.run.certificate.faces[f];
+    over += c.upper >
+            (fewest.run.part.faces[f].trimmed ? app::kFitRatioTrimmed : app::kFitRatioUntrimmed) * c.hausdorff.lower;
+  }
+  EXPECT_GE(over, 1);
 }
 
 // An open shell of untrimmed planes (FreeCAD fixture): every face covered, the part certified as a

@@ -186,9 +186,12 @@ inline constexpr double kFitRatioTrimmed = 1.5;
 inline constexpr double kFitRatioUntrimmed = 1.1;
 
 // `mesher` meshes the part with the given options (the file or a BREP text). progress (may be empty)
-// is told each step: (step, segments).
+// is told each step: (step, segments). tighten: after the fewest triangles that meet the target,
+// the tightness pass (docs/FITTING.md step 4) spends triangles on faces whose certified interval is
+// wider than kFitRatioTrimmed / kFitRatioUntrimmed; false keeps the fewest triangles.
 PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& mesher, double target,
-                 const CertifyOptions& certify, const std::function<void(int, int)>& progress = {});
+                 const CertifyOptions& certify, const std::function<void(int, int)>& progress = {},
+                 bool tighten = true);
 
 // The fit as JSON: met, reason, target, segments, edge_tolerance, triangles, certified_error,
 // certified_lower_bound, certified_faces_error,
