@@ -937,6 +937,31 @@ class HeadlessTest(unittest.TestCase):
         self.assertEqual(obj.EdgeTolerance, 0.0)
         FreeCAD.closeDocument(doc.Name)
 
+    def test_fit_sets_the_faces_edge_tolerances_the_tightness_pass_chose(self):
+        """Fit of occ22470 (IGES, 18 faces) at 1e-3 of its diagonal: the tightness pass gives three
+        trimmed faces tighter edges (FaceEdgeTolerances); the recomputed feature is the mesh the fit
+        certified, and Undo clears them with the rest of the fit."""
+        path = os.path.join(SHARED, "cad", "step", "occ22470.igs")
+        if not os.path.exists(path):
+            self.skipTest("shared data absent")
+        doc = FreeCAD.newDocument("FitTight")
+        doc.UndoMode = 1
+        part = doc.addObject("Part::Feature", "Occ22470")
+        part.Shape = Part.read(path)
+        doc.recompute()
+        obj = SagittaCore.make_tessellation(doc, [(part, [])], scheme="uniform", level=1)
+        target = 1e-3 * part.Shape.BoundBox.DiagonalLength
+        result = SagittaCore.fit_tessellation(obj, target)
+        self.assertTrue(result["met"])
+        self.assertLessEqual(result["certified_error"], target)
+        self.assertEqual(list(obj.FaceEdgeTolerances), result["face_edge_tolerance"])
+        self.assertGreater(sum(1 for t in obj.FaceEdgeTolerances if t > 0), 0)
+        self.assertEqual(obj.Mesh.CountFacets, result["triangles"])
+        doc.undo()
+        doc.recompute()
+        self.assertEqual(list(obj.FaceEdgeTolerances), [])
+        FreeCAD.closeDocument(doc.Name)
+
     def test_fit_refuses_a_target_that_is_not_a_positive_number(self):
         obj = SagittaCore.make_tessellation(self.doc, [(self.bezier, [])], scheme="uniform", level=1)
         for target in (0.0, -1e-3, math.inf, math.nan):
