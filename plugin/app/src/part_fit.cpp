@@ -301,13 +301,22 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
       attempt(*std::max_element(trial_grid.begin(), trial_grid.end()), trial_grid, tighter, fit.edge_tolerance,
               trial_tolerance);
       if (!all_meet(tighter)) {
-        // The faces that now miss the target go back to their last values, and the rest is tried again.
+        // The faces that now miss the target go back to their last values (or, where a face missed
+        // unchanged, its changed neighbours: their edges are its edges), and the rest is tried again.
         current_tolerance.resize(trial_tolerance.size(), 0.0);
-        for (size_t f = 0; f < trial_grid.size(); ++f) {
-          if (face_meets(tighter, f)) continue;
-          if (trial_tolerance[f] != current_tolerance[f] || trial_grid[f] != current_grid[f]) pending = true;
+        const auto revert = [&](size_t f) {
+          if (trial_tolerance[f] == current_tolerance[f] && trial_grid[f] == current_grid[f]) return false;
           trial_tolerance[f] = current_tolerance[f];
           trial_grid[f] = current_grid[f];
+          return true;
+        };
+        for (size_t f = 0; f < trial_grid.size(); ++f) {
+          if (face_meets(tighter, f)) continue;
+          if (revert(f)) {
+            pending = true;
+            continue;
+          }
+          for (int g : neighbours[f]) pending = revert(static_cast<size_t>(g)) || pending;
         }
         if (!pending) break;
         continue;
