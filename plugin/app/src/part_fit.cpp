@@ -256,16 +256,21 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     //    triangles' bound, docs/VALIDATION.md) gets a tighter edge tolerance, scaled by how much the
     //    sliver term must shrink (it follows the chords' deviation, which follows the tolerance); one
     //    whose triangles' own bound is too wide gets a finer grid (N + max(1, N / 2): long coarse
-    //    triangles bound loosely). Up to 4 rounds, each from the last, while the target is met; the
-    //    run with the fewest faces over the limits is kept.
+    //    triangles bound loosely). Up to 6 rounds, each from the last, while the target is met (a
+    //    round that misses puts the missing faces back and runs again); the run with the fewest
+    //    faces over the limits is kept.
     const double exact = 1e-9 * model_box(best.part.model).diagonal();
+    const auto limit_of = [](const PartRun& r, size_t f) {
+      return r.part.faces[f].trimmed ? kFitRatioTrimmed : kFitRatioUntrimmed;
+    };
+    // Face f of run r is certified, not exact, and wider than its ratio limit.
+    const auto over_limit = [&](const PartRun& r, size_t f) {
+      const FaceCertificate& c = r.certificate.faces[f];
+      return c.certified && c.upper > exact && c.upper > limit_of(r, f) * c.hausdorff.lower;
+    };
     const auto over_limits = [&](const PartRun& r) {
       int over = 0;
-      for (size_t f = 0; f < r.certificate.faces.size(); ++f) {
-        const FaceCertificate& c = r.certificate.faces[f];
-        const double limit = r.part.faces[f].trimmed ? kFitRatioTrimmed : kFitRatioUntrimmed;
-        over += c.certified && c.upper > exact && c.upper > limit * c.hausdorff.lower ? 1 : 0;
-      }
+      for (size_t f = 0; f < r.certificate.faces.size(); ++f) over += over_limit(r, f) ? 1 : 0;
       return over;
     };
     std::vector<double> face_tolerance, current_tolerance;
@@ -282,10 +287,9 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
         trial_grid = current_grid;
         bool changed = false;
         for (size_t f = 0; f < current.certificate.faces.size(); ++f) {
+          if (!over_limit(current, f)) continue;
           const FaceCertificate& c = current.certificate.faces[f];
-          const double limit = current.part.faces[f].trimmed ? kFitRatioTrimmed : kFitRatioUntrimmed;
-          if (!c.certified || !(c.upper > exact) || c.upper <= limit * c.hausdorff.lower) continue;
-          const double sliver_goal = 0.9 * limit * c.hausdorff.lower - (c.upper - c.sliver);
+          const double sliver_goal = 0.9 * limit_of(current, f) * c.hausdorff.lower - (c.upper - c.sliver);
           if (c.sliver > 0.0 && sliver_goal > 0.0) {
             const double now = trial_tolerance[f] > 0.0 ? trial_tolerance[f] : fit.edge_tolerance;
             trial_tolerance[f] = now * std::clamp(sliver_goal / c.sliver, 0.1, 0.9);

@@ -433,6 +433,7 @@ struct EdgeSamples {
   std::vector<uint32_t> vertex;  // mesh vertex of each sample
   bool degenerated = false;
   bool free = false;  // used by one face only, not a seam: the model's boundary
+  std::function<Vec3(double)> on_face;  // a free edge's points on its face (free_edge_on_face), else empty
 };
 
 // Segments per patch span the scheme puts on a patch side (the edge density's unit).
@@ -734,7 +735,8 @@ void sample_edge(PartBuilder& b, int e) {
   }
   std::unique_ptr<BRepAdaptor_Curve> curve;
   if (!s.degenerated) curve = std::make_unique<BRepAdaptor_Curve>(edge);
-  const std::function<Vec3(double)> on_face = free_edge_on_face(b, e);
+  s.on_face = free_edge_on_face(b, e);
+  const std::function<Vec3(double)>& on_face = s.on_face;
   const auto vertex_id = [&](const TopoDS_Vertex& v) { return static_cast<uint32_t>(b.x.vertices.FindIndex(v) - 1); };
   for (size_t k = 0; k < s.t.size(); ++k) {
     if (s.degenerated) {
@@ -1398,7 +1400,7 @@ void build_edges(PartBuilder& b) {
     const TopoDS_Edge edge = TopoDS::Edge(x.edges(e + 1).Oriented(TopAbs_FORWARD));
     TopoDS_Vertex v_first, v_last;
     TopExp::Vertices(edge, v_first, v_last);
-    const std::function<Vec3(double)> on_face = free_edge_on_face(b, e);
+    const std::function<Vec3(double)>& on_face = b.edges[e].on_face;
     const int face = on_face ? faces_of_edge(x, edge).front() : -2;
     for (const auto& [v, t] : {std::pair{v_first, b.edges[e].t.front()}, std::pair{v_last, b.edges[e].t.back()}}) {
       if (v.IsNull()) continue;
