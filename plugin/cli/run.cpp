@@ -1,7 +1,7 @@
 // The main job: tessellate a model (the built-in default when none is given) with every scheme,
 // certify each mesh, fit ESC to a target error, and write the trade report into an output folder,
 // printing where each file is. A whole CAD part gets the part mesher's uniform and esc meshes, checked
-// per solid and certified where the certificate applies, and its level sweep; no fit (issue 15).
+// per solid and certified where the certificate applies, the whole-part fit and its level sweep.
 #include "commands.hpp"
 #include "progress.hpp"
 #include "report.hpp"
@@ -92,7 +92,8 @@ nlohmann::json run_one_part_scheme(const std::string& input, const SchemeSpec& s
 }
 
 // `sagitta run` on a whole CAD part: uniform at --level and ESC, each checked and certified where it
-// applies; no fit (issue 15); the report is the part's level sweep plus both meshes' tables.
+// applies; the whole-part fit (fit.ply, fit.json); the report is the part's level sweep plus both
+// meshes' tables.
 void run_part_job(const RunOptions& o) {
   std::filesystem::create_directories(o.out_dir);
   const std::filesystem::path dir(o.out_dir);
@@ -115,8 +116,41 @@ void run_part_job(const RunOptions& o) {
   summary["box_diagonal"] = diagonal;
   summary["runs"].push_back(
       run_one_part_scheme(o.input, esc, o.out_dir, "esc", "L 3, rho " + app::format_number(esc.threshold)));
-  std::cout << "[2/3] fit: skipped (fit of whole parts: issue 15)\n" << std::flush;
-  summary["fit"] = {{"skipped", true}, {"reason", "fit of whole parts: issue 15"}};
+  // The fit as `sagitta fit PART --target-error E` (docs/FITTING.md): E = --target-error, else 1e-3 of
+  // the diagonal.
+  const double target = o.target_error > 0.0 ? o.target_error : 1e-3 * diagonal;
+  std::cout << "[2/3] fit the whole part to certified error <= " << target << " (uniform, each face its own "
+            << "density):\n"
+            << std::flush;
+  {
+    ProgressLine progress("sagitta run: fit");
+    const app::PartFit fit = app::fit_part(
+        [&](const occt::PartOptions& options) { return occt::mesh_part_file(o.input, options); }, target,
+        CertifyOptions{},
+        [&](int step, int segments) { progress.update(step, 0, std::to_string(segments) + " segments (certifying)"); });
+    progress.clear();
+    nlohmann::json fit_doc = app::part_fit_json(fit);
+    fit_doc["input"] = o.input;
+    const std::string fit_mesh = (dir / "fit.ply").string();
+    if (fit.met) {
+      io::write_mesh(fit.run.part.mesh, fit_mesh);
+      fit_doc["output"] = fit_mesh;
+    }
+    const std::string fit_json = (dir / "fit.json").string();
+    write_json(fit_json, fit_doc);
+    fit_doc.erase("part");  // the summary keeps the fit's choice; fit.json has every face
+    summary["fit"] = fit_doc;
+    std::cout << "  " << fit.run.part.mesh.triangles.size() << " triangles (segments up to " << fit.segments
+              << ", edge tolerance " << app::format_number(fit.edge_tolerance) << "), ";
+    if (fit.run.certificate.all_certified) {
+      std::cout << "certified error <= " << fit.run.certificate.distance.hausdorff.upper;
+    } else {
+      std::cout << "not certified";
+    }
+    std::cout << (fit.met ? " (meets the target)" : " (MISSES the target: " + fit.reason + ")") << " -> "
+              << (fit.met ? fit_mesh + ", " : std::string()) << fit_json << "\n"
+              << std::flush;
+  }
   if (o.report) {
     std::cout << "[3/3] report (the part swept over uniform levels " << kPartReportLevels.front() << "-"
               << kPartReportLevels.back() << "):\n"
@@ -228,7 +262,7 @@ Command register_run(CLI::App& app) {
       "run", "The main job: every scheme tessellated and certified, an ESC fit to a target error, and the trade report");
   cmd->add_option("input", o->input,
                   "Patch file (.bpt, .rib); omit for the built-in default model; or a whole CAD part (.step, .iges, "
-                  ".brep: uniform and esc part meshes checked per solid, no fit yet (issue 15), the level sweep)");
+                  ".brep: uniform and esc part meshes checked per solid, the whole-part fit, the level sweep)");
   cmd->add_option("--out-dir", o->out_dir, "Folder for the meshes, fit and report")->capture_default_str();
   cmd->add_option("--level", o->level, "Uniform level of uniform.ply")->capture_default_str();
   cmd->add_option("--target-error", o->target_error, "Fit target (default: 1e-3 of the model's box diagonal)");

@@ -41,9 +41,18 @@ for p in "${parts[@]}"; do
   done
   [[ $(ply_faces "$d/uniform.ply") == $("$SAGITTA" tessellate "$p" --level 3 --stats "$tmp/t.json" >/dev/null && field "$tmp/t.json" "d['triangles']") ]] \
     || fail "$name: run's uniform mesh differs from tessellate --level 3"
-  [[ $(field "$d/run.json" "d['fit']['skipped'] and 'issue 15' in d['fit']['reason']") == True ]] || fail "$name: fit not skipped"
-  [[ $out == *"fit: skipped (fit of whole parts: issue 15)"* ]] || fail "$name: fit line in '$out'"
-  [[ ! -e "$d/fit.ply" && ! -e "$d/pn.ply" ]] || fail "$name: fit or pn mesh written for a part"
+  # The whole-part fit (issue 15): E = 1e-3 of the box diagonal, met with every face certified, its
+  # mesh written with the triangles fit.json counts, and the same mesh `sagitta fit PART` makes for E.
+  [[ $(field "$d/run.json" "d['fit']['met'] and d['fit']['certified'] and d['fit']['certified_error'] <= d['fit']['target_error'] and abs(d['fit']['target_error'] - 1e-3 * d['box_diagonal']) <= 1e-12 * d['box_diagonal']") == True ]] \
+    || fail "$name: fit not met at 1e-3 of the diagonal"
+  [[ $(ply_faces "$d/fit.ply") == $(field "$d/fit.json" "d['triangles']") ]] || fail "$name: fit.ply faces != fit.json triangles"
+  [[ $(field "$d/fit.json" "len(d['part']['certificate']['faces']) == d['part']['faces']") == True ]] || fail "$name: fit.json faces"
+  [[ $out == *"fit the whole part to certified error <= "*"(meets the target)"* ]] || fail "$name: fit line in '$out'"
+  target=$(field "$d/run.json" "repr(d['fit']['target_error'])")
+  "$SAGITTA" fit "$p" --target-error "$target" --json "$tmp/fit.json" >/dev/null || fail "$name: sagitta fit exit $?"
+  [[ $(field "$tmp/fit.json" "d['triangles']") == $(field "$d/fit.json" "d['triangles']") ]] \
+    || fail "$name: run's fit differs from sagitta fit --target-error $target"
+  [[ ! -e "$d/pn.ply" ]] || fail "$name: pn mesh written for a part"
   [[ -f "$d/report.html" && -f "$d/report.json" ]] || fail "$name: no report"
   grep -q '<table class="faces">' "$d/report.html" || fail "$name: no per-face table in the HTML"
   grep -q '<th>&chi;</th>' "$d/report.html" || fail "$name: no per-solid table in the HTML"
