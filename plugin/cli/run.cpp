@@ -138,8 +138,7 @@ void run_part_job(const RunOptions& o) {
     }
     const std::string fit_json = (dir / "fit.json").string();
     write_json(fit_json, fit_doc);
-    fit_doc.erase("part");  // the summary keeps the fit's choice; fit.json has every face
-    summary["fit"] = fit_doc;
+    summary["fit"] = app::part_fit_summary(fit);  // fit.json has every face
     std::cout << "  " << fit.run.part.mesh.triangles.size() << " triangles (segments up to " << fit.segments
               << ", edge tolerance " << app::format_number(fit.edge_tolerance) << "), ";
     if (fit.run.certificate.all_certified) {
@@ -161,6 +160,7 @@ void run_part_job(const RunOptions& o) {
         [&](int done, int total, const std::string& what) { progress.update(done, total, what); });
     progress.clear();
     entry["meshes"] = summary["runs"];
+    entry["fit"] = summary["fit"];
     nlohmann::json report = {{"tool", "sagitta run"}, {"models", {entry}}, {"occt_version", occt::occt_version()}};
     report["error"] = "certified Hausdorff upper bound between mesh and exact surface (model units)";
     report["time"] = "tessellation wall time (seconds), certification excluded";

@@ -53,6 +53,8 @@ for p in "${parts[@]}"; do
   [[ $(field "$tmp/fit.json" "d['triangles']") == $(field "$d/fit.json" "d['triangles']") ]] \
     || fail "$name: run's fit differs from sagitta fit --target-error $target"
   [[ ! -e "$d/pn.ply" ]] || fail "$name: pn mesh written for a part"
+  [[ $(field "$d/report.json" "d['models'][0]['fit']['triangles']") == $(field "$d/fit.json" "d['triangles']") ]] \
+    || fail "$name: the report's fit is not run's fit"
   [[ -f "$d/report.html" && -f "$d/report.json" ]] || fail "$name: no report"
   grep -q '<table class="faces">' "$d/report.html" || fail "$name: no per-face table in the HTML"
   grep -q '<th>&chi;</th>' "$d/report.html" || fail "$name: no per-solid table in the HTML"
@@ -108,6 +110,17 @@ if [[ -f $pr1ct ]]; then
   [[ $(field "$tmp/rep/report.json" "all(r['certified'] == (r['faces_certified'] == r['faces']) for r in $m['levels'])") == True ]] \
     || fail "report pr1ct: certified does not match the faces certified"
   [[ $(grep -o '<tr><td>[0-9]</td>' "$tmp/rep/report.html" | wc -l) == 4 ]] || fail "report pr1ct: not 4 level rows in the HTML"
+  # The whole-part fit at 1e-3 of the box diagonal: met, its row in the HTML and its line on stdout,
+  # the same mesh as `sagitta fit` at that target.
+  [[ $(field "$tmp/rep/report.json" "$m['fit']['met'] and $m['fit']['certified_error'] <= $m['fit']['target_error'] and abs($m['fit']['target_error'] - 1e-3 * $m['box_diagonal']) <= 1e-12 * $m['box_diagonal']") == True ]] \
+    || fail "report pr1ct: fit $(field "$tmp/rep/report.json" "$m.get('fit')")"
+  fit_triangles=$(field "$tmp/rep/report.json" "$m['fit']['triangles']")
+  grep -q "<h3>Fit to a certified error of" "$tmp/rep/report.html" && grep -q "<tr><td>$fit_triangles</td>" "$tmp/rep/report.html" \
+    || fail "report pr1ct: no fit table in the HTML"
+  [[ $(printf '%s\n' "$out" | grep -c "pr1ct.stp fit to .*: $fit_triangles triangles, certified Hausdorff <= .* (meets the target)") == 1 ]] \
+    || fail "report pr1ct: fit line in '$out'"
+  "$SAGITTA" fit "$pr1ct" --target-error "$(field "$tmp/rep/report.json" "repr($m['fit']['target_error'])")" --json "$tmp/fit2.json" >/dev/null
+  [[ $(field "$tmp/fit2.json" "d['triangles']") == "$fit_triangles" ]] || fail "report pr1ct: fit differs from sagitta fit"
   # A part among patch models: each in the order given, the patch model swept as before.
   "$SAGITTA" report "$pr1ct" default --no-occt --out "$tmp/mix" >/dev/null || fail "report pr1ct default: exit $?"
   [[ $(field "$tmp/mix/report.json" "[(m.get('kind'), m['name']) for m in d['models']]") == "[('part', 'pr1ct.stp'), (None, 'default')]" ]] \

@@ -54,6 +54,19 @@ std::vector<std::vector<int>> face_neighbours(const occt::PartMesh& part) {
 
 }  // namespace
 
+bool face_over_ratio_limit(const PartRun& run, size_t face) {
+  const FaceCertificate& c = run.certificate.faces[face];
+  const double exact = 1e-9 * model_box(run.part.model).diagonal();
+  const double limit = run.part.faces[face].trimmed ? kFitRatioTrimmed : kFitRatioUntrimmed;
+  return c.certified && c.upper > exact && c.upper > limit * c.hausdorff.lower;
+}
+
+int faces_over_ratio_limits(const PartRun& run) {
+  int over = 0;
+  for (size_t f = 0; f < run.certificate.faces.size(); ++f) over += face_over_ratio_limit(run, f) ? 1 : 0;
+  return over;
+}
+
 PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& mesher, double target,
                  const CertifyOptions& certify, const std::function<void(int, int)>& progress, bool tighten) {
   if (!(target > 0.0) || !std::isfinite(target)) {
@@ -259,20 +272,11 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     //    triangles bound loosely). Up to 6 rounds, each from the last, while the target is met (a
     //    round that misses puts the missing faces back and runs again); the run with the fewest
     //    faces over the limits is kept.
-    const double exact = 1e-9 * model_box(best.part.model).diagonal();
     const auto limit_of = [](const PartRun& r, size_t f) {
       return r.part.faces[f].trimmed ? kFitRatioTrimmed : kFitRatioUntrimmed;
     };
-    // Face f of run r is certified, not exact, and wider than its ratio limit.
-    const auto over_limit = [&](const PartRun& r, size_t f) {
-      const FaceCertificate& c = r.certificate.faces[f];
-      return c.certified && c.upper > exact && c.upper > limit_of(r, f) * c.hausdorff.lower;
-    };
-    const auto over_limits = [&](const PartRun& r) {
-      int over = 0;
-      for (size_t f = 0; f < r.certificate.faces.size(); ++f) over += over_limit(r, f) ? 1 : 0;
-      return over;
-    };
+    const auto over_limit = [](const PartRun& r, size_t f) { return face_over_ratio_limit(r, f); };
+    const auto over_limits = [](const PartRun& r) { return faces_over_ratio_limits(r); };
     std::vector<double> face_tolerance, current_tolerance;
     std::vector<int> face_grid = best_segments, current_grid = best_segments;
     if (current_grid.empty()) current_grid.assign(best.certificate.faces.size(), best_n);
@@ -349,6 +353,15 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   fit.reason = "not met at " + std::to_string(n) + " segments per patch side (certified error " +
                std::to_string(fit.steps.back().faces_upper) + ")";
   return finish(n, {}, std::move(run));
+}
+
+nlohmann::json part_fit_summary(const PartFit& fit) {
+  nlohmann::json j = part_fit_json(fit);
+  j.erase("part");
+  j["steps"] = fit.steps.size();
+  j["faces"] = fit.run.part.faces.size();
+  j["faces_over_ratio_limits"] = faces_over_ratio_limits(fit.run);
+  return j;
 }
 
 nlohmann::json part_fit_json(const PartFit& fit) {

@@ -5,7 +5,10 @@
 #include "sagitta/app/part.hpp"
 #include "sagitta/app/report.hpp"
 
+#include <glm/common.hpp>
+
 #include <algorithm>
+#include <limits>
 #include <sstream>
 
 namespace sagitta::app {
@@ -138,6 +141,10 @@ nlohmann::json part_report_entry(const std::string& path, const std::string& nam
       entry["faces_trimmed"] = run.part.faces_trimmed;
       entry["solids"] = run.part.solids.size();
       entry["closed_solids"] = run.validation.volumes.size();
+      // The box of the first level's vertices (points on the part): the fit's default target is 1e-3 of it.
+      Vec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+      for (const Vec3& p : run.part.mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+      entry["box_diagonal"] = run.part.mesh.positions.empty() ? 0.0 : Box{lo, hi}.diagonal();
     }
     previous = run.part.mesh.triangles.size();
     rows.push_back(level_row(level, run));

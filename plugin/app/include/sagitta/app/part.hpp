@@ -193,6 +193,15 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
                  const CertifyOptions& certify, const std::function<void(int, int)>& progress = {},
                  bool tighten = true);
 
+// Faces of a run that are certified, not exact (upper above 1e-9 of the part's size) and wider
+// than their ratio limit (kFitRatioTrimmed / kFitRatioUntrimmed): the fit's tightness measure.
+bool face_over_ratio_limit(const PartRun& run, size_t face);
+int faces_over_ratio_limits(const PartRun& run);
+
+// The fit in a few numbers for reports: part_fit_json without the mesh and the steps (their count
+// instead), plus `faces` and `faces_over_ratio_limits`.
+nlohmann::json part_fit_summary(const PartFit& fit);
+
 // The fit as JSON: met, reason, target, segments, edge_tolerance, triangles, certified_error,
 // certified_lower_bound, certified_faces_error,
 // steps [{segments, triangles, certified, upper, certified_faces_upper, lower, seconds}], seconds, and the chosen
