@@ -135,6 +135,9 @@ void run_part_job(const RunOptions& o) {
     if (fit.met) {
       io::write_mesh(fit.run.part.mesh, fit_mesh);
       fit_doc["output"] = fit_mesh;
+    } else {
+      std::error_code ignored;  // an earlier run's fit.ply must not pass for this one's
+      std::filesystem::remove(fit_mesh, ignored);
     }
     const std::string fit_json = (dir / "fit.json").string();
     write_json(fit_json, fit_doc);
