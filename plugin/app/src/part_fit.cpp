@@ -52,18 +52,27 @@ std::vector<std::vector<int>> face_neighbours(const occt::PartMesh& part) {
   return neighbours;
 }
 
-}  // namespace
-
-bool face_over_ratio_limit(const PartRun& run, size_t face) {
-  const FaceCertificate& c = run.certificate.faces[face];
-  const double exact = 1e-9 * model_box(run.part.model).diagonal();
-  const double limit = run.part.faces[face].trimmed ? kFitRatioTrimmed : kFitRatioUntrimmed;
-  return c.certified && c.upper > exact && c.upper > limit * c.hausdorff.lower;
+// The ratio limit of face f (trimmed or not).
+double ratio_limit(const PartRun& run, size_t face) {
+  return run.part.faces[face].trimmed ? kFitRatioTrimmed : kFitRatioUntrimmed;
 }
 
+// face_over_ratio_limit with the exactness threshold (1e-9 of the part's size) already computed.
+bool over_limit(const PartRun& run, size_t face, double exact) {
+  const FaceCertificate& c = run.certificate.faces[face];
+  return c.certified && c.upper > exact && c.upper > ratio_limit(run, face) * c.hausdorff.lower;
+}
+
+double exact_threshold(const PartRun& run) { return 1e-9 * model_box(run.part.model).diagonal(); }
+
+}  // namespace
+
+bool face_over_ratio_limit(const PartRun& run, size_t face) { return over_limit(run, face, exact_threshold(run)); }
+
 int faces_over_ratio_limits(const PartRun& run) {
+  const double exact = exact_threshold(run);
   int over = 0;
-  for (size_t f = 0; f < run.certificate.faces.size(); ++f) over += face_over_ratio_limit(run, f) ? 1 : 0;
+  for (size_t f = 0; f < run.certificate.faces.size(); ++f) over += over_limit(run, f, exact) ? 1 : 0;
   return over;
 }
 
@@ -272,11 +281,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     //    triangles bound loosely). Up to 6 rounds, each from the last, while the target is met (a
     //    round that misses puts the missing faces back and runs again); the run with the fewest
     //    faces over the limits is kept.
-    const auto limit_of = [](const PartRun& r, size_t f) {
-      return r.part.faces[f].trimmed ? kFitRatioTrimmed : kFitRatioUntrimmed;
-    };
-    const auto over_limit = [](const PartRun& r, size_t f) { return face_over_ratio_limit(r, f); };
-    const auto over_limits = [](const PartRun& r) { return faces_over_ratio_limits(r); };
+    const double exact = exact_threshold(best);  // every run meshes the same part
     std::vector<double> face_tolerance, current_tolerance;
     std::vector<int> face_grid = best_segments, current_grid = best_segments;
     if (current_grid.empty()) current_grid.assign(best.certificate.faces.size(), best_n);
@@ -284,16 +289,16 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     std::vector<double> trial_tolerance;
     std::vector<int> trial_grid;
     bool pending = false;  // a trial with some faces' changes undone, to run as it is
-    for (int round = 0; tighten && round < 6 && over_limits(best) > 0; ++round) {
+    for (int round = 0; tighten && round < 6 && faces_over_ratio_limits(best) > 0; ++round) {
       if (!pending) {
         trial_tolerance = current_tolerance;
         trial_tolerance.resize(current.certificate.faces.size(), 0.0);
         trial_grid = current_grid;
         bool changed = false;
         for (size_t f = 0; f < current.certificate.faces.size(); ++f) {
-          if (!over_limit(current, f)) continue;
+          if (!over_limit(current, f, exact)) continue;
           const FaceCertificate& c = current.certificate.faces[f];
-          const double sliver_goal = 0.9 * limit_of(current, f) * c.hausdorff.lower - (c.upper - c.sliver);
+          const double sliver_goal = 0.9 * ratio_limit(current, f) * c.hausdorff.lower - (c.upper - c.sliver);
           if (c.sliver > 0.0 && sliver_goal > 0.0) {
             const double now = trial_tolerance[f] > 0.0 ? trial_tolerance[f] : fit.edge_tolerance;
             trial_tolerance[f] = now * std::clamp(sliver_goal / c.sliver, 0.1, 0.9);
@@ -332,7 +337,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
       current = std::move(tighter);
       current_tolerance = trial_tolerance;
       current_grid = trial_grid;
-      if (over_limits(current) < over_limits(best)) {
+      if (faces_over_ratio_limits(current) < faces_over_ratio_limits(best)) {
         best = current;
         face_tolerance = current_tolerance;
         face_grid = current_grid;

@@ -26,6 +26,15 @@ occt::PartMesh mesh_part(const std::string& path, int level) {
   return occt::mesh_part_file(path, app::part_options(spec, 0.0));
 }
 
+// 1e-3 of the part's diagonal (the box of a level-0 mesh), as the fit tests ask for.
+double fit_target(const std::string& path) { return 1e-3 * model_box(mesh_part(path, 0).model).diagonal(); }
+
+// app::fit_part on the file (tighten: the tightness pass, as `sagitta fit` without --fewest).
+app::PartFit fit_file(const std::string& path, double target, bool tighten = true) {
+  return app::fit_part([&](const occt::PartOptions& options) { return occt::mesh_part_file(path, options); }, target,
+                       CertifyOptions{}, {}, tighten);
+}
+
 Vec3 face_point_uv(const occt::PartMesh& part, const occt::PartFace& f, double U, double V);
 
 // The exact surface point of face f at a point w of patch `patch`'s (s, t) frame (w may lie outside
@@ -348,9 +357,8 @@ TEST(AppPart, FitGoesOnPastAFaceNotCertifiedAtOneDensityOnly) {
 TEST(AppPart, FitGivesEachFaceItsOwnDensity) {
   const std::string path = shared_data("cad/step/OCC2368.stp");
   SAGITTA_REQUIRE_DATA(path);
-  const double target = 1e-3 * model_box(mesh_part(path, 0).model).diagonal();
-  const app::PartFit fit = app::fit_part(
-      [&](const occt::PartOptions& options) { return occt::mesh_part_file(path, options); }, target, CertifyOptions{});
+  const double target = fit_target(path);
+  const app::PartFit fit = fit_file(path, target);
   ASSERT_TRUE(fit.met) << fit.reason;
   ASSERT_TRUE(fit.run.certificate.all_certified);
   EXPECT_LE(fit.run.certificate.distance.hausdorff.upper, target);
@@ -378,9 +386,8 @@ TEST(AppPart, FitGivesEachFaceItsOwnDensity) {
 TEST(AppPart, FitTightensTheEdgesOfFacesOverTheRatioLimits) {
   const std::string path = shared_data("cad/step/occ22470.igs");
   SAGITTA_REQUIRE_DATA(path);
-  const double target = 1e-3 * model_box(mesh_part(path, 0).model).diagonal();
-  const app::PartFit fit = app::fit_part(
-      [&](const occt::PartOptions& options) { return occt::mesh_part_file(path, options); }, target, CertifyOptions{});
+  const double target = fit_target(path);
+  const app::PartFit fit = fit_file(path, target);
   ASSERT_TRUE(fit.met) << fit.reason;
   EXPECT_LE(fit.run.certificate.distance.hausdorff.upper, target);
   const occt::PartMesh& part = fit.run.part;
@@ -406,9 +413,7 @@ TEST(AppPart, FitTightensTheEdgesOfFacesOverTheRatioLimits) {
   EXPECT_EQ(occt::mesh_part_file(path, again).mesh.positions, part.mesh.positions);
   expect_face_bounds_hold(part, fit.run.certificate);
   // Without the pass (`sagitta fit --fewest`): fewer triangles, the same target met, faces over.
-  const app::PartFit fewest =
-      app::fit_part([&](const occt::PartOptions& options) { return occt::mesh_part_file(path, options); }, target,
-                    CertifyOptions{}, {}, false);
+  const app::PartFit fewest = fit_file(path, target, false);
   ASSERT_TRUE(fewest.met) << fewest.reason;
   EXPECT_TRUE(fewest.face_edge_tolerance.empty());
   EXPECT_LT(fewest.run.part.mesh.triangles.size(), part.mesh.triangles.size());
