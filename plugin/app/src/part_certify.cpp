@@ -319,10 +319,11 @@ BezierPatch sub_patch(const BezierPatch& patch, double s0, double s1, double t0,
   return sub;
 }
 
-// The Gram bound over the face's (U, V) box [lo, hi]: for each patch whose cell meets it, the
-// sub-net over the part of the cell inside the box (the whole cell's bound when that part is
-// most of it), with the rounding margin. Cells are clamped onto the grid.
-Gram gram_over(const Model& model, const std::vector<Gram>& grams, const Grid& g, const Vec2& lo, const Vec2& hi) {
+// The Gram bound over a (U, V) box [lo, hi] inside the grid's range (gram_over's core): for each
+// patch whose cell meets it, the sub-net over the part of the cell inside the box (the whole cell's
+// bound when that part is most of it), with the rounding margin. Cells are clamped onto the grid.
+Gram gram_over_in_range(const Model& model, const std::vector<Gram>& grams, const Grid& g, const Vec2& lo,
+                        const Vec2& hi) {
   const auto cells = [](const std::vector<double>& breaks, double a, double b) {
     const size_t n = breaks.size() - 1;
     size_t first = static_cast<size_t>(std::upper_bound(breaks.begin(), breaks.end(), a) - breaks.begin());
@@ -363,6 +364,37 @@ Gram gram_over(const Model& model, const std::vector<Gram>& grams, const Grid& g
   }
   const double margin = 1.0 + 256.0 * kUnit;
   return {gram.uu * margin, gram.uv * margin + 64.0 * kUnit * std::sqrt(gram.uu * gram.vv), gram.vv * margin};
+}
+
+// [lo, hi] of one direction as intervals inside [front, back]: in a periodic direction the box's
+// copies whole periods away (a loop past the seam has (U, V) beyond the range), else the box itself
+// (clamped onto the grid by the core).
+std::vector<std::pair<double, double>> wrapped_intervals(double lo, double hi, double front, double back,
+                                                         double period) {
+  if (!(period > 0.0) || !(lo == lo) || !(hi == hi) || (lo >= front && hi <= back)) return {{lo, hi}};
+  if (hi - lo >= period) return {{front, back}};
+  std::vector<std::pair<double, double>> out;
+  const double k0 = std::floor((front - hi) / period), k1 = std::ceil((back - lo) / period);
+  for (double k = k0; k <= k1; k += 1.0) {
+    const double a = std::max(lo + k * period, front), b = std::min(hi + k * period, back);
+    if (a <= b) out.push_back({a, b});
+  }
+  if (out.empty()) out.push_back({lo, hi});  // in a gap the patches do not cover: clamped by the core
+  return out;
+}
+
+// The Gram bound over the face's (U, V) box [lo, hi] (see gram_over_in_range), its parts whole
+// periods away taken where they lie.
+Gram gram_over(const Model& model, const std::vector<Gram>& grams, const Grid& g, const Vec2& lo, const Vec2& hi) {
+  Gram out{0.0, 0.0, 0.0};
+  for (const auto& [u0, u1] : wrapped_intervals(lo.x, hi.x, g.f.u_breaks.front(), g.f.u_breaks.back(), g.f.u_period)) {
+    for (const auto& [v0, v1] :
+         wrapped_intervals(lo.y, hi.y, g.f.v_breaks.front(), g.f.v_breaks.back(), g.f.v_period)) {
+      const Gram part = gram_over_in_range(model, grams, g, Vec2(u0, v0), Vec2(u1, v1));
+      out = {std::max(out.uu, part.uu), std::max(out.uv, part.uv), std::max(out.vv, part.vv)};
+    }
+  }
+  return out;
 }
 
 Gram face_gram(const std::vector<Gram>& grams, const Grid& g) {
@@ -1040,6 +1072,7 @@ nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCerti
     if (f.route == "loops") row["chords"] = f.chords, row["sliver"] = f.sliver;
     row["triangles"] = pf.triangles;
     if (pf.segments > 0) row["segments"] = pf.segments, row["grid"] = {pf.segments_u, pf.segments_v};
+    if (pf.graded_u > 0) row["graded_grid"] = {pf.graded_u, pf.graded_v};
     row["seconds"] = f.seconds;
     if (!f.certified) row["reason"] = f.reason;
     faces.push_back(std::move(row));

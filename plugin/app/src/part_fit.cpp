@@ -137,17 +137,46 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   //    some N (or no face can be certified, or the cap). Per face: lo, the largest N known to fail,
   //    and hi, the smallest N known to meet (0: none yet).
   std::vector<int> lo, hi;
+  // A face that misses because of its slivers (the sliver term is over a quarter of its bound and
+  // its triangles alone are within 0.9 E) keeps its N and gets a tighter edge tolerance instead,
+  // scaled by how much the sliver term must shrink (up to 3 times; tried in the next run): a finer
+  // grid would not move the chords, and finer edges cost fewer triangles.
+  std::vector<double> tolerance;  // per face edge tolerance (0: the part's)
+  std::vector<int> tightened;
+  const auto tighten_edges = [&](const PartRun& r, size_t f) {
+    const FaceCertificate& c = r.certificate.faces[f];
+    if (!c.certified || !(c.sliver > 0.0) || tightened[f] >= 3) return false;
+    const double own = c.upper - c.sliver;
+    if (!(own < 0.9 * target) || c.sliver < 0.25 * c.upper) return false;
+    const double factor = std::clamp((0.9 * target - own) / c.sliver, 0.1, 0.9);
+    // Only where finer edges are the cheaper remedy: a chord's error goes with the square of its
+    // length, so the face's boundary vertices grow by 1 / sqrt(factor), each adding about a
+    // triangle on either side of its edge; raising N by half (what a miss otherwise costs) grows
+    // the face's triangles by 1.5x per direction that has more than one cell per span.
+    const occt::PartFace& face = r.part.faces[f];
+    const double boundary = static_cast<double>(face.boundary_vertices);
+    const double finer_edges = 2.0 * boundary * (1.0 / std::sqrt(factor) - 1.0);
+    const int n = std::max(1, face.segments), raised = n + std::max(1, n / 2);
+    const double growth = static_cast<double>(raised) / n;
+    const bool one_way = face.graded_u == 0 && std::min(face.segments_u, face.segments_v) <= 1;
+    const double finer_grid = static_cast<double>(face.triangles) * ((one_way ? growth : growth * growth) - 1.0);
+    if (!(finer_edges < finer_grid)) return false;
+    const double now = tolerance[f] > 0.0 ? tolerance[f] : fit.edge_tolerance;
+    tolerance[f] = now * factor;
+    ++tightened[f];
+    return true;
+  };
   int n = 1;
   PartRun run;
   std::vector<int> previous_uncertified;
   bool met = false;
   while (true) {
-    met = attempt(n, {}, run);
+    met = attempt(n, {}, run, 0.0, tolerance);
     const size_t faces = run.certificate.faces.size();
-    lo.resize(faces, 0), hi.resize(faces, 0);
+    lo.resize(faces, 0), hi.resize(faces, 0), tolerance.resize(faces, 0.0), tightened.resize(faces, 0);
     for (size_t f = 0; f < faces; ++f) {
       if (hi[f] > 0) continue;
-      if (face_meets(run, f)) {
+      if (face_meets(run, f) || tighten_edges(run, f)) {
         hi[f] = n;
       } else {
         lo[f] = n;
@@ -186,14 +215,17 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   const bool uniform_met = all_meet(run);
   PartRun best;
   std::vector<int> best_segments;
+  std::vector<double> best_tolerance;
   int best_n = n;
   const std::vector<std::vector<int>> neighbours = face_neighbours(run.part);
-  if (uniform_met) best = std::move(run);
-  const auto keep_if_better = [&](PartRun& trial, const std::vector<int>& segments) {
+  if (uniform_met) best = std::move(run), best_tolerance = tolerance;
+  const auto keep_if_better = [&](PartRun& trial, const std::vector<int>& segments,
+                                  const std::vector<double>& tolerances) {
     if (!all_meet(trial)) return;
     if (!best.part.faces.empty() && best.part.mesh.triangles.size() <= trial.part.mesh.triangles.size()) return;
     best = std::move(trial);
     best_segments = segments;
+    best_tolerance = tolerances;
     if (!segments.empty()) best_n = *std::max_element(segments.begin(), segments.end());
   };
   // 2. Each face its own density. Every face's N is bisected between its lo and hi, all faces at
@@ -203,25 +235,35 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   //    chords through its re-parametrisation). Such a face is first raised itself by half its N
   //    (often its own grid is just short; up to twice while that lowers its bound); then its
   //    neighbours get at least its N, and when they already have it, the face itself is doubled.
+  //    A face that misses because of its slivers keeps its N with finer edges (tighten_edges).
   std::vector<int> at_least(hi.size(), 0);  // per face: the N its neighbours' misses asked for
   std::vector<int> self_raised(hi.size(), 0);
   std::vector<double> raised_from(hi.size(), -1.0);  // per face: its bound when last raised itself
   std::vector<int> segments(hi.begin(), hi.end());
+  bool tightening = false;  // the last round tightened some face's edges: its trial is new
   for (int step = 0; step < 16; ++step) {
     std::vector<int> trial = segments;
     bool bisecting = false;
     for (size_t f = 0; f < trial.size(); ++f) {
       if (hi[f] - lo[f] > 1) trial[f] = lo[f] + (hi[f] - lo[f]) / 2, bisecting = true;
     }
-    if (!bisecting && step > 0 && trial == best_segments) break;
+    if (!bisecting && !tightening && step > 0 && trial == best_segments) break;
     // Every face at the uniform run's N: that run is already known.
-    if (!bisecting && uniform_met && std::all_of(trial.begin(), trial.end(), [&](int t) { return t == n; })) break;
+    if (!bisecting && !tightening && uniform_met &&
+        std::all_of(trial.begin(), trial.end(), [&](int t) { return t == n; }))
+      break;
     PartRun per_face;
-    attempt(*std::max_element(trial.begin(), trial.end()), trial, per_face);
+    attempt(*std::max_element(trial.begin(), trial.end()), trial, per_face, 0.0, tolerance);
     bool all = true;
+    tightening = false;
     for (size_t f = 0; f < trial.size(); ++f) {
       const bool meets = face_meets(per_face, f);
       all = all && meets;
+      if (!meets && tighten_edges(per_face, f)) {  // this N with finer edges: tried next round
+        hi[f] = trial[f];
+        tightening = true;
+        continue;
+      }
       if (trial[f] != hi[f]) {  // bisected
         (meets ? hi[f] : lo[f]) = trial[f];
         continue;
@@ -254,10 +296,10 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
       hi[g] = std::max(hi[g], at_least[g]);
       lo[g] = std::max(lo[g], at_least[g] - 1);
     }
-    keep_if_better(per_face, trial);
+    keep_if_better(per_face, trial, tolerance);
     segments = hi;
     if (!bisecting && all) break;
-    if (!bisecting && segments == trial) break;  // nothing left to change (faces at the cap)
+    if (!bisecting && !tightening && segments == trial) break;  // nothing left to change (faces at the cap)
   }
   if (!best.part.faces.empty()) {
     // 3. Coarser edges: the edge chord tolerance E / 2 is conservative (its chords are checked at
@@ -266,10 +308,10 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     for (double factor : {2.0, 1.4, 1.0, 0.75}) {
       PartRun coarser;
       const std::vector<int> face_segments = best_segments;
-      attempt(best_n, face_segments, coarser, factor * target);
+      attempt(best_n, face_segments, coarser, factor * target, best_tolerance);
       if (!all_meet(coarser)) continue;
       const bool fewer = coarser.part.mesh.triangles.size() < best.part.mesh.triangles.size();
-      keep_if_better(coarser, face_segments);
+      keep_if_better(coarser, face_segments, best_tolerance);
       if (fewer) fit.edge_tolerance = factor * target;
       break;
     }
@@ -282,7 +324,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     //    round that misses puts the missing faces back and runs again); the run with the fewest
     //    faces over the limits is kept.
     const double exact = exact_threshold(best);  // every run meshes the same part
-    std::vector<double> face_tolerance, current_tolerance;
+    std::vector<double> face_tolerance = best_tolerance, current_tolerance = best_tolerance;
     std::vector<int> face_grid = best_segments, current_grid = best_segments;
     if (current_grid.empty()) current_grid.assign(best.certificate.faces.size(), best_n);
     PartRun current = best;
@@ -347,7 +389,8 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
       best_segments = face_grid;
       best_n = *std::max_element(face_grid.begin(), face_grid.end());
     }
-    fit.face_edge_tolerance = face_tolerance;
+    if (std::any_of(face_tolerance.begin(), face_tolerance.end(), [](double t) { return t > 0.0; }))
+      fit.face_edge_tolerance = face_tolerance;
     return finish(best_n, best_segments, std::move(best));
   }
   // No per-face run met every face and the uniform run did not either: the uniform doubling goes on.

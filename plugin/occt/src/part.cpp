@@ -147,6 +147,9 @@ struct FaceGeometry {
   // The uniform scheme's grid on every patch of the face: segments_u x segments_v (face_grid: the
   // larger equal to `segments`, 1 x 1 when flat; 1 x 1 for ESC: the edge density's unit).
   int segments_u = 1, segments_v = 1;
+  // A graded grid (try_graded_grid): the face's own lines in U and V, replacing the per-patch grid
+  // (empty when the face uses the per-patch grid).
+  std::vector<double> grid_u, grid_v;
 };
 
 double clamp(double x, double lo, double hi) { return std::min(std::max(x, lo), hi); }
@@ -384,7 +387,228 @@ std::pair<int, int> face_grid(int segments, const FaceBend& bend) {
   return {std::max(1, static_cast<int>(std::ceil(segments / aspect - 1e-9))), segments};
 }
 
-void tessellate_face_patches(FaceGeometry& g, const SchemeSpec& scheme) {
+// ---------------------------------------------------------------------------------------------
+// Graded grids: one set of grid lines for the whole face instead of N x N cells on every patch.
+// A B-spline face's knot spans may differ in size by a factor of 100 (a fillet swept along a path:
+// spans 0.09 mm and 4.5 mm long side by side, bug24595); a per-patch grid spends its N cells on
+// each of them alike. Here every span gets the cells its own bending needs, spans that need less
+// than one are merged into shared cells, and the lines ignore the knots inside merged cells (the
+// certificate cuts triangles along the patch grid, so cells may span several patches).
+
+// Per span of one direction: cells that span needs (real), from the second differences and twists
+// of its patches' control nets (face_bend's terms, span-local), scaled so that the face's most
+// bending patch gets `segments` cells along the direction it bends most (face_grid's rule).
+// `kink_u[k]`: the surface turns across knot k (between spans k - 1 and k) along U: a line stays there.
+struct SpanNeeds {
+  std::vector<double> u, v;
+  std::vector<bool> kink_u, kink_v;
+};
+
+// Whether the unit directions a and b differ by more than about 1e-6 radians (either may be zero:
+// a collapsed side, no direction to compare).
+bool turns(const Vec3& a, const Vec3& b) {
+  const double la = glm::length(a), lb = glm::length(b);
+  if (!(la > 0.0) || !(lb > 0.0)) return false;
+  return glm::length(a / la - b / lb) > 1e-6;
+}
+
+// Whether span [a, b] of a direction with period `period` (0: none) meets [lo, hi].
+bool span_meets(double a, double b, double lo, double hi, double period) {
+  for (int k = -1; k <= 1; ++k) {
+    if (period <= 0.0 && k != 0) continue;
+    const double shift = k * period;
+    if (b >= lo + shift && a <= hi + shift) return true;
+  }
+  return false;
+}
+
+SpanNeeds span_needs(const FaceGeometry& g, int segments) {
+  const int nu = g.nu, nv = g.nv;
+  std::vector<double> a(g.patches.size()), b(g.patches.size()), t(g.patches.size());
+  for (size_t p = 0; p < g.patches.size(); ++p) {
+    const BezierPatch& q = g.patches[p];
+    const int du = q.degree_u, dv = q.degree_v;
+    for (int i = 0; i <= du; ++i) {
+      for (int j = 0; j <= dv; ++j) {
+        if (i + 2 <= du)
+          a[p] = std::max(a[p], du * (du - 1) * glm::length(q.at(i + 2, j) - 2.0 * q.at(i + 1, j) + q.at(i, j)));
+        if (j + 2 <= dv)
+          b[p] = std::max(b[p], dv * (dv - 1) * glm::length(q.at(i, j + 2) - 2.0 * q.at(i, j + 1) + q.at(i, j)));
+        if (i + 1 <= du && j + 1 <= dv)
+          t[p] =
+              std::max(t[p], du * dv * glm::length(q.at(i + 1, j + 1) - q.at(i + 1, j) - q.at(i, j + 1) + q.at(i, j)));
+      }
+    }
+  }
+  // Only the patches the trimmed domain meets decide a line's density (the (U, V) box of the face's
+  // p-curves; every patch when the face's parameters are not the patches').
+  const std::vector<double>& ub = g.report.u_breaks;
+  const std::vector<double>& vb = g.report.v_breaks;
+  std::vector<bool> in_u(nu, true), in_v(nv, true);
+  if (g.converted.IsNull()) {
+    double u0 = 0.0, u1 = 0.0, v0 = 0.0, v1 = 0.0;
+    BRepTools::UVBounds(g.face, u0, u1, v0, v1);
+    if (u0 <= u1 && v0 <= v1) {
+      for (int i = 0; i < nu; ++i) in_u[i] = span_meets(ub[i], ub[i + 1], u0, u1, g.u_period);
+      for (int j = 0; j < nv; ++j) in_v[j] = span_meets(vb[j], vb[j + 1], v0, v1, g.v_period);
+      if (std::none_of(in_u.begin(), in_u.end(), [](bool x) { return x; })) in_u.assign(nu, true);
+      if (std::none_of(in_v.begin(), in_v.end(), [](bool x) { return x; })) in_v.assign(nv, true);
+    }
+  }
+  SpanNeeds need;
+  need.u.assign(nu, 0.0), need.v.assign(nv, 0.0);
+  std::vector<double> twist_u(nu, 0.0), twist_v(nv, 0.0);
+  double worst = 0.0, worst_twist = 0.0;
+  for (int i = 0; i < nu; ++i) {
+    for (int j = 0; j < nv; ++j) {
+      const size_t p = static_cast<size_t>(i * nv + j);
+      if (in_v[j]) need.u[i] = std::max(need.u[i], a[p]), twist_u[i] = std::max(twist_u[i], t[p]);
+      if (in_u[i]) need.v[j] = std::max(need.v[j], b[p]), twist_v[j] = std::max(twist_v[j], t[p]);
+      if (in_u[i] && in_v[j]) worst = std::max({worst, a[p], b[p]}), worst_twist = std::max(worst_twist, t[p]);
+    }
+  }
+  // Every span needs at least its share of `segments` cells over the whole range, so that a larger
+  // N refines every cell (a direction the nets call straight included).
+  const double scale = worst + worst_twist > 0.0 ? segments / std::sqrt(worst + worst_twist) : 0.0;
+  const double range_u = ub.back() - ub.front(), range_v = vb.back() - vb.front();
+  for (int i = 0; i < nu; ++i) {
+    const double bend = need.u[i] > 0.0 ? scale * std::sqrt(need.u[i] + twist_u[i]) : 0.0;
+    need.u[i] = std::max(bend, segments * (ub[i + 1] - ub[i]) / range_u);
+  }
+  for (int j = 0; j < nv; ++j) {
+    const double bend = need.v[j] > 0.0 ? scale * std::sqrt(need.v[j] + twist_v[j]) : 0.0;
+    need.v[j] = std::max(bend, segments * (vb[j + 1] - vb[j]) / range_v);
+  }
+  // Knots where the surface is not tangent-continuous (a crease between two patches: the nets'
+  // end differences across the knot point different ways) keep their line. Along U on a reversed
+  // face, a patch's s runs against U.
+  need.kink_u.assign(nu + 1, false), need.kink_v.assign(nv + 1, false);
+  for (int i = 1; i < nu; ++i) {
+    for (int j = 0; j < nv && !need.kink_u[i]; ++j) {
+      if (!in_v[j]) continue;
+      const BezierPatch& left = g.patches[static_cast<size_t>((i - 1) * nv + j)];
+      const BezierPatch& right = g.patches[static_cast<size_t>(i * nv + j)];
+      const int dl = left.degree_u, dr = right.degree_u;
+      for (int r = 0; r <= std::min(left.degree_v, right.degree_v) && !need.kink_u[i]; ++r) {
+        const Vec3 end = g.reversed ? left.at(0, r) - left.at(1, r) : left.at(dl, r) - left.at(dl - 1, r);
+        const Vec3 start = g.reversed ? right.at(dr - 1, r) - right.at(dr, r) : right.at(1, r) - right.at(0, r);
+        need.kink_u[i] = turns(end, start);
+      }
+    }
+  }
+  for (int j = 1; j < nv; ++j) {
+    for (int i = 0; i < nu && !need.kink_v[j]; ++i) {
+      if (!in_u[i]) continue;
+      const BezierPatch& below = g.patches[static_cast<size_t>(i * nv + j - 1)];
+      const BezierPatch& above = g.patches[static_cast<size_t>(i * nv + j)];
+      const int db = below.degree_v;
+      for (int r = 0; r <= std::min(below.degree_u, above.degree_u) && !need.kink_v[j]; ++r)
+        need.kink_v[j] = turns(below.at(r, db) - below.at(r, db - 1), above.at(r, 1) - above.at(r, 0));
+    }
+  }
+  return need;
+}
+
+// Grid lines over `breaks` (first and last included): a span that needs n >= 1 cells gets
+// ceil(n) equal ones between its knots; consecutive spans that need less share cells, each cell as
+// long as (its length) x (the largest density n / span length it covers) stays <= 1; a kink's knot
+// is always a line.
+std::vector<double> graded_lines(const std::vector<double>& breaks, const std::vector<double>& need,
+                                 const std::vector<bool>& kink) {
+  std::vector<double> lines = {breaks.front()};
+  double density = 0.0;  // the open cell's (from lines.back() on) largest density, cells per unit
+  for (size_t k = 0; k < need.size(); ++k) {
+    const double a = breaks[k], b = breaks[k + 1], width = b - a;
+    if (!(width > 0.0)) continue;
+    if (kink[k] && lines.back() < a) lines.push_back(a), density = 0.0;
+    if (need[k] >= 1.0 - 1e-9) {
+      if (lines.back() < a) lines.push_back(a);
+      const int n = static_cast<int>(std::ceil(need[k] - 1e-9));
+      for (int c = 1; c < n; ++c) lines.push_back(a + width * c / n);
+      lines.push_back(b);
+      density = 0.0;
+      continue;
+    }
+    const double d = std::max(density, need[k] / width);
+    if ((b - lines.back()) * d <= 1.0) {  // the open cell takes the whole span
+      density = d;
+      continue;
+    }
+    // The open cell ends as far into this span as d allows (at its start if not at all), then
+    // cells of this span's own density; the last one stays open.
+    lines.push_back(std::max(a, lines.back() + 1.0 / d));
+    density = need[k] / width;
+    while ((b - lines.back()) * density > 1.0) lines.push_back(lines.back() + 1.0 / density);
+  }
+  if (lines.back() < breaks.back()) lines.push_back(breaks.back());
+  // A cell thinner than 1e-9 of the range (rounding at a span's end) joins its neighbour.
+  const double tiny = 1e-9 * (breaks.back() - breaks.front());
+  std::vector<double> kept = {lines.front()};
+  for (size_t k = 1; k + 1 < lines.size(); ++k) {
+    if (lines[k] - kept.back() > tiny && lines.back() - lines[k] > tiny) kept.push_back(lines[k]);
+  }
+  kept.push_back(lines.back());
+  return kept;
+}
+
+// The face's graded grid into g.scheme / g.scheme_uv: vertices at the lines' crossings (on the
+// face's Bézier surface), each cell cut along its shorter diagonal in space, counter-clockwise in
+// (U, V) (clockwise on a reversed face, whose patches mirror U).
+void tessellate_graded(FaceGeometry& g, std::vector<double> lines_u, std::vector<double> lines_v) {
+  g.scheme = Tessellation{};
+  g.scheme_uv.clear();
+  g.scheme_sides.clear();
+  const size_t nu = lines_u.size(), nv = lines_v.size();
+  Tessellation& m = g.scheme;
+  for (size_t a = 0; a < nu; ++a) {
+    for (size_t b = 0; b < nv; ++b) {
+      const Vec2 w(lines_u[a], lines_v[b]);
+      const uint32_t id = static_cast<uint32_t>(m.positions.size());
+      m.positions.push_back(eval_uv(g, w));
+      g.scheme_uv.push_back(w);
+      if (a == 0 || a + 1 == nu || b == 0 || b + 1 == nv) g.scheme_sides.emplace(std::make_pair(w.x, w.y), id);
+    }
+  }
+  const auto id = [nv](size_t a, size_t b) { return static_cast<uint32_t>(a * nv + b); };
+  for (size_t a = 0; a + 1 < nu; ++a) {
+    for (size_t b = 0; b + 1 < nv; ++b) {
+      const uint32_t p00 = id(a, b), p10 = id(a + 1, b), p11 = id(a + 1, b + 1), p01 = id(a, b + 1);
+      const bool main_diagonal =
+          glm::length(m.positions[p00] - m.positions[p11]) <= glm::length(m.positions[p10] - m.positions[p01]);
+      std::array<Triangle, 2> cell = main_diagonal
+                                         ? std::array<Triangle, 2>{Triangle{p00, p10, p11}, Triangle{p00, p11, p01}}
+                                         : std::array<Triangle, 2>{Triangle{p00, p10, p01}, Triangle{p10, p11, p01}};
+      for (Triangle& t : cell) {
+        if (g.reversed) std::swap(t[1], t[2]);
+        m.triangles.push_back(t);
+      }
+    }
+  }
+  g.grid_u = std::move(lines_u);
+  g.grid_v = std::move(lines_v);
+}
+
+// The graded grid for `segments` N when it has at most 3/4 of the cells of the per-patch grid
+// nu x nv; false (nothing changed) otherwise. A smaller saving is not worth what the face gives up:
+// an untrimmed face on the per-patch grid keeps the scheme's triangles whole (certified on its own
+// patches), a graded one is triangulated from its loops like a trimmed face.
+bool try_graded_grid(FaceGeometry& g, int segments, int nu, int nv) {
+  if (g.nu * g.nv <= 1) return false;
+  const SpanNeeds need = span_needs(g, segments);
+  std::vector<double> lines_u = graded_lines(g.report.u_breaks, need.u, need.kink_u);
+  std::vector<double> lines_v = graded_lines(g.report.v_breaks, need.v, need.kink_v);
+  const size_t cells_u = lines_u.size() - 1, cells_v = lines_v.size() - 1;
+  if (4 * cells_u * cells_v > 3 * static_cast<size_t>(nu) * g.nu * static_cast<size_t>(nv) * g.nv) return false;
+  // The CDT's metric: the mean cell square, the coarser direction shrunk (as face_grid's cells).
+  const double mean_u = g.su * (g.report.u_breaks.back() - g.report.u_breaks.front()) / cells_u;
+  const double mean_v = g.sv * (g.report.v_breaks.back() - g.report.v_breaks.front()) / cells_v;
+  g.cu = mean_u > mean_v ? g.su * mean_v / mean_u : g.su;
+  g.cv = mean_v > mean_u ? g.sv * mean_u / mean_v : g.sv;
+  tessellate_graded(g, std::move(lines_u), std::move(lines_v));
+  return true;
+}
+
+void tessellate_face_patches(FaceGeometry& g, const SchemeSpec& scheme, bool graded) {
   g.segments_u = g.segments_v = g.segments;
   g.cu = g.su;
   g.cv = g.sv;
@@ -396,7 +620,12 @@ void tessellate_face_patches(FaceGeometry& g, const SchemeSpec& scheme) {
   spec.vertex_normals = false;
   const Topology topology = build_topology(model);
   if (spec.scheme == Scheme::kUniform && spec.patch_levels.empty()) {
-    const auto [nu, nv] = face_grid(g.segments, face_bend(g.patches));
+    const FaceBend bend = face_bend(g.patches);
+    const auto [nu, nv] = face_grid(g.segments, bend);
+    if (graded && !bend.flat && try_graded_grid(g, g.segments, nu, nv)) {
+      g.segments_u = nu, g.segments_v = nv;
+      return;
+    }
     SchemeSpec grid = spec;
     grid.level = -1;
     grid.segments = nu;
@@ -458,7 +687,8 @@ SchemeSpec face_scheme(const PartOptions& options, int f) {
 }
 
 // The edge's p-curve on face g sampled at 33 points, in the face's grid cells (a patch span is
-// segments_u cells along u and segments_v along v): how many grid cells of the face the edge runs along.
+// segments_u cells along u and segments_v along v, or the graded grid's cells): how many grid cells
+// of the face the edge runs along.
 double grid_length(const FaceGeometry& g, const TopoDS_Edge& edge) {
   double f = 0.0, l = 0.0;
   const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(edge, g.face, f, l);
@@ -469,9 +699,16 @@ double grid_length(const FaceGeometry& g, const TopoDS_Edge& edge) {
   for (int k = 0; k <= 32; ++k) {
     const gp_Pnt2d q = pc->Value(f + (l - f) * k / 32.0);
     const Vec2 UV = face_to_uv(g, q.X() + shift.x, q.Y() + shift.y);
-    const auto [i, s] = locate_span(g.report.u_breaks, UV.x);
-    const auto [j, t] = locate_span(g.report.v_breaks, UV.y);
-    const Vec2 grid((i + s) * g.segments_u, (j + t) * g.segments_v);
+    Vec2 grid;
+    if (!g.grid_u.empty()) {
+      const auto [i, s] = locate_span(g.grid_u, UV.x);
+      const auto [j, t] = locate_span(g.grid_v, UV.y);
+      grid = Vec2(i + s, j + t);
+    } else {
+      const auto [i, s] = locate_span(g.report.u_breaks, UV.x);
+      const auto [j, t] = locate_span(g.report.v_breaks, UV.y);
+      grid = Vec2((i + s) * g.segments_u, (j + t) * g.segments_v);
+    }
     if (k > 0) length += glm::length(grid - prev);
     prev = grid;
   }
@@ -1114,7 +1351,8 @@ void add_free_points(PartBuilder& b, const FaceGeometry& g, const SegmentGrid& g
 // has no partner; mesh_face then takes the general path.
 bool try_keep_whole_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, const std::vector<LoopPoint>& loop,
                          const std::vector<PoleLine>& poles) {
-  if (g.report.status == "trimmed" || g.scheme.triangles.empty()) return false;
+  // A graded grid's cells span several patches: the face is certified from its loops.
+  if (g.report.status == "trimmed" || g.scheme.triangles.empty() || !g.grid_u.empty()) return false;
   const std::vector<double>& ub = g.report.u_breaks;
   const std::vector<double>& vb = g.report.v_breaks;
   const Vec2 eps(1e-9 * (ub.back() - ub.front()), 1e-9 * (vb.back() - vb.front()));
@@ -1512,6 +1750,10 @@ void add_face(PartBuilder& b, const FaceGeometry& g, const std::function<bool(Pa
   pf.segments = uniform ? g.segments : 0;
   pf.segments_u = uniform ? g.segments_u : 0;
   pf.segments_v = uniform ? g.segments_v : 0;
+  if (uniform && !g.grid_u.empty()) {
+    pf.graded_u = static_cast<int>(g.grid_u.size()) - 1;
+    pf.graded_v = static_cast<int>(g.grid_v.size()) - 1;
+  }
   pf.solid = g.solid;
   pf.status = "skipped";
   if (g.patches.empty()) {
@@ -1599,7 +1841,7 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
     budget::check("tessellating the part's faces");
     const SchemeSpec scheme = face_scheme(options, g.report.face_index);
     g.segments = scheme_segments(scheme);
-    tessellate_face_patches(g, scheme);
+    tessellate_face_patches(g, scheme, options.graded_grids);
   }
   std::vector<EdgePlan> plans;
   for (int e = 0; e < x.edges.Extent(); ++e) {

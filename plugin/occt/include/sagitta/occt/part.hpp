@@ -33,6 +33,11 @@ struct PartOptions {
   // certified interval is widened by the slivers between curve and chords. Shorter than the face
   // count: the remaining faces take edge_tolerance.
   std::vector<double> face_edge_tolerance;
+  // uniform only: a face whose knot spans need different densities (a B-spline fillet with spans of
+  // 0.1 and 4 mm side by side) gets one grid of its own lines, each span as many cells as its bending
+  // needs and short spans sharing cells, instead of the same N x N cells on every patch (docs/CAD.md,
+  // "Graded grids"); off: always the per-patch grid.
+  bool graded_grids = true;
   CadOptions cad;
   // PartSolid::valid (BRepCheck_Analyzer) and ::volume (BRepGProp): OCCT's own facts about each
   // solid, for the reports; off, they stay false / 0 (they cost more than the tessellation on
@@ -78,6 +83,9 @@ struct PartFace {
   // along the direction that bends more, fewer along one that bends less (a cylinder's rulings take
   // one), 1 x 1 on a flat face (0 x 0: esc).
   int segments_u = 0, segments_v = 0;
+  // uniform on a face whose knot spans differ in size (docs/CAD.md, "Graded grids"): the cells of
+  // the face's own grid along U and V, which replaces the per-patch grid above (0: not graded).
+  int graded_u = 0, graded_v = 0;
   uint64_t triangles = 0;         // emitted triangles of the face
   uint64_t scheme_triangles = 0;  // of those, the scheme's own triangles kept unchanged
   uint64_t boundary_vertices = 0; // shared edge vertices on the face's loops
