@@ -617,10 +617,18 @@ struct LeafBounds {
   Vec2 qp[3];
 };
 
+// A restricted domain's test for a box of the own patch's (u, v) (CertifyOptions::box_in_domain,
+// bound to the patch): null or empty when there is none.
+using BoxInDomain = std::function<bool(const Vec2& lo, const Vec2& hi)>;
+
 // Mesh->surface: the leaf's corners matched to their projections on the surface; `lin` is the
-// leaf's bound in its own (u, v). Lowers b.m2s, sets b.m2s_seen and the candidate in res.
+// leaf's bound in its own (u, v). Lowers b.m2s, sets b.m2s_seen and the candidate in res. With
+// own_uv_only (a restricted domain) the projections are used only where box_in_domain vouches for
+// the box of the leaf's own (u, v) and its corners' projections: the projections' triangle then
+// lies in the domain, so its surface points belong to the face.
 void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin, double tau, const OtherPatches& others,
-                           bool own_uv_only, Scratch& s, LeafBounds& b, TriangleResult& res) {
+                           bool own_uv_only, const BoxInDomain* box_in_domain, Scratch& s, LeafBounds& b,
+                           TriangleResult& res) {
   const Vec2* q = c.q;
   const Vec3* X = c.X;
   Vec2 qp[3];
@@ -637,7 +645,13 @@ void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin,
   }
   b.projected = true;
   std::copy(qp, qp + 3, b.qp);
-  if (!own_uv_only) b.m2s = std::min(lin, composed_bound(P, qp, X, s));
+  if (!own_uv_only) {
+    b.m2s = std::min(lin, composed_bound(P, qp, X, s));
+  } else if (box_in_domain && *box_in_domain) {
+    Vec2 lo = q[0], hi = q[0];
+    for (int i = 0; i < 3; ++i) lo = glm::min(lo, glm::min(q[i], qp[i])), hi = glm::max(hi, glm::max(q[i], qp[i]));
+    if ((*box_in_domain)(lo, hi)) b.m2s = std::min(lin, composed_bound(P, qp, X, s));
+  }
   if (b.m2s > tau && !others.empty()) {
     // The leaf matched to another patch: sound for the distance to the model, and the only
     // tight match where the triangle leaves its own patch for a neighbour (folds, seams).
@@ -725,7 +739,8 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
                                double tau, double target_ratio, int max_depth, Scratch& s, bool s2m_only = false,
                                const std::vector<std::array<Vec3, 3>>* s2m_targets = nullptr,
                                const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest = {},
-                               const OtherPatches& others = {}, bool own_uv_only = false, double root_bound = kInf) {
+                               const OtherPatches& others = {}, bool own_uv_only = false, double root_bound = kInf,
+                               const BoxInDomain* box_in_domain = nullptr) {
   TriangleResult res;
   CornerCache corners;
   struct Evaluated {
@@ -758,7 +773,8 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
     LeafBounds& b = e.b;
     b.m2s = s2m_only ? 0.0 : e.lin;
     b.s2m = e.lin;
-    if (e.lin > tau && !s2m_only) bound_mesh_to_surface(P, c, e.lin, tau, others, own_uv_only, s, b, res);
+    if (e.lin > tau && !s2m_only)
+      bound_mesh_to_surface(P, c, e.lin, tau, others, own_uv_only, box_in_domain, s, b, res);
     if (e.lin > tau) bound_surface_to_mesh(P, c, T, s2m_only, s2m_targets, nearest, s, b, res);
     return e;
   };
@@ -1516,10 +1532,17 @@ void refine_triangles(const Refinement& rf, const Estimates& est, std::vector<Tr
           tri = !a || (r && distance(ring) <= distance(any)) ? ring : any;
           return true;
         };
-        results[t] = refine_triangle(rf.pd[mesh.triangle_patch[t]], mesh.triangle_uv[t], triangle_corners(mesh, t),
-                                     rf.tau, options.target_ratio, rf.max_depth, s, false, nullptr, nearest,
-                                     OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]},
-                                     options.in_domain && !options.domain_contains_patches, rf.cheap[t]);
+        const uint32_t patch = mesh.triangle_patch[t];
+        BoxInDomain box_in_domain;
+        if (options.box_in_domain) {
+          box_in_domain = [&options, patch](const Vec2& lo, const Vec2& hi) {
+            return options.box_in_domain(patch, lo, hi);
+          };
+        }
+        results[t] = refine_triangle(
+            rf.pd[patch], mesh.triangle_uv[t], triangle_corners(mesh, t), rf.tau, options.target_ratio, rf.max_depth, s,
+            false, nullptr, nearest, OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]},
+            options.in_domain && !options.domain_contains_patches, rf.cheap[t], &box_in_domain);
       }
       if (results[t].m2s_est < est.value[t]) {
         results[t].m2s_est = est.value[t];

@@ -553,6 +553,51 @@ bool near_a_chord(const Grid& g, const Vec2& w) {
   return false;
 }
 
+// Distance between the box [lo, hi] and the segment [a, b] (0 when they meet): attained at an end of
+// the segment or a corner of the box when they do not meet.
+double box_segment_distance(const Vec2& lo, const Vec2& hi, const Vec2& a, const Vec2& b) {
+  const auto inside = [&](const Vec2& p) { return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y; };
+  if (inside(a) || inside(b)) return 0.0;
+  // Liang-Barsky: the part of the segment inside the box's slabs.
+  double t0 = 0.0, t1 = 1.0;
+  const Vec2 d = b - a;
+  bool meets = true;
+  for (int k = 0; k < 2 && meets; ++k) {
+    if (d[k] == 0.0) {
+      meets = a[k] >= lo[k] && a[k] <= hi[k];
+      continue;
+    }
+    double s0 = (lo[k] - a[k]) / d[k], s1 = (hi[k] - a[k]) / d[k];
+    if (s0 > s1) std::swap(s0, s1);
+    t0 = std::max(t0, s0), t1 = std::min(t1, s1);
+    meets = t0 <= t1;
+  }
+  if (meets) return 0.0;
+  const auto to_box = [&](const Vec2& p) { return glm::length(p - glm::clamp(p, lo, hi)); };
+  double dist = std::min(to_box(a), to_box(b));
+  for (const Vec2& c : {lo, hi, Vec2(lo.x, hi.y), Vec2(hi.x, lo.y)}) dist = std::min(dist, segment_distance(c, a, b));
+  return dist;
+}
+
+// Whether the box [lo, hi] of patch `local`'s (s, t) lies in the face's domain, for a box that holds a
+// point of the chords' polygon (a leaf of a piece): it must lie in the patch and clear of every
+// chord's band (2 x its deviation, as near_a_chord). The trimming curves lie in those bands, so a
+// connected set that holds a point of the domain and meets no band is in the domain.
+bool box_in_domain(const Grid& g, uint32_t local, const Vec2& lo, const Vec2& hi) {
+  if (!(lo.x >= 0.0 && lo.y >= 0.0 && hi.x <= 1.0 && hi.y <= 1.0)) return false;
+  const Vec2 a = g.to_uv(local, lo), b = g.to_uv(local, hi);
+  const Vec2 box_lo = glm::min(a, b), box_hi = glm::max(a, b), centre = 0.5 * (box_lo + box_hi);
+  const Vec2 m = g.f.chord_metric;
+  for (const occt::BoundaryChord& c : g.f.chords) {
+    const Vec2 d = c.uv_a - centre;
+    const Vec2 shift = d - periodic_difference(g, d);  // the box moved whole periods towards the chord
+    const double band = 2.0 * c.deviation + 1e-9 * g.range() * std::max(m.x, m.y);
+    if (!(box_segment_distance(m * (box_lo + shift), m * (box_hi + shift), m * c.uv_a, m * c.uv_b) > band))
+      return false;
+  }
+  return true;
+}
+
 // Face -> mesh lower bound from the points of the trimming curves (BoundaryChord::curve_points):
 // the largest distance from the face's boundary to its mesh sits there, between a chord and its curve,
 // where the triangles' own candidate points never reach.
@@ -884,6 +929,11 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   cut.in_domain = [&g](uint32_t local, Vec2 st) { return !near_a_chord(g, g.to_uv(local, st)); };
   // An untrimmed face is its patches whole: a triangle may be matched to its corners' projections.
   cut.domain_contains_patches = !f.trimmed;
+  // On a trimmed face, where the leaf and its corners' projections lie clear of the trimming curves.
+  if (f.trimmed)
+    cut.box_in_domain = [&g](uint32_t local, const Vec2& lo, const Vec2& hi) {
+      return box_in_domain(g, local, lo, hi);
+    };
   DistanceReport d = certify_distance(model, pieces.mesh, cut);
   const double shallow_lower = std::max(d.mesh_to_surface.lower, d.surface_to_mesh.lower);
   const double shallow_upper = std::max(d.mesh_to_surface.upper, d.surface_to_mesh_over_triangles);
@@ -930,6 +980,7 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   }
   fc.mesh_to_surface = d.mesh_to_surface;
   fc.surface_to_mesh = d.surface_to_mesh;
+  fc.triangles_mesh_to_surface = d.mesh_to_surface.upper;
   raise_lower_on_curves(f, pieces.mesh, fc.surface_to_mesh);
   if (tiling.empty())
     raise_lower_in_slivers(part, g, model, vertices, triangles.size(), corner_uv, chord_triangle, fc.mesh_to_surface);
@@ -1069,7 +1120,10 @@ nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCerti
     nlohmann::json row = {{"face", pf.name},           {"surface", pf.surface_type}, {"trimmed", pf.trimmed},
                           {"route", f.route},          {"certified", f.certified},   {"lower", f.hausdorff.lower},
                           {"upper", number_or_null(f.certified ? f.hausdorff.upper : kInf)}};
-    if (f.route == "loops") row["chords"] = f.chords, row["sliver"] = f.sliver;
+    if (f.route == "loops") {
+      row["chords"] = f.chords, row["sliver"] = f.sliver;
+      row["triangles_mesh_to_surface"] = number_or_null(f.triangles_mesh_to_surface);
+    }
     row["triangles"] = pf.triangles;
     if (pf.segments > 0) row["segments"] = pf.segments, row["grid"] = {pf.segments_u, pf.segments_v};
     if (pf.graded_u > 0) row["graded_grid"] = {pf.graded_u, pf.graded_v};

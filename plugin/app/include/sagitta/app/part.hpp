@@ -68,6 +68,11 @@ struct FaceCertificate {
   DistanceInterval mesh_to_surface, surface_to_mesh, hausdorff;  // face <-> its own triangles
   double upper = 0.0;       // hausdorff.upper when certified
   double sliver = 0.0;      // loops route: the largest chord term (speed x deviation), in model units
+  // loops route: the triangles' own mesh -> surface bound (each point against the surface at its
+  // own (u, v), or at its leaf's projections where they lie in the domain), before the sliver term
+  // is added to the triangles on the chords; not by itself a bound of the face (a point over a
+  // sliver outside the domain is matched to a surface point outside it).
+  double triangles_mesh_to_surface = 0.0;
   uint64_t chords = 0;      // loops route: chords of the face's loops
   double seconds = 0.0;     // this face's certificate (faces run in parallel)
 };
