@@ -619,7 +619,7 @@ struct LeafBounds {
 
 // A restricted domain's test for a box of the own patch's (u, v) (CertifyOptions::box_in_domain,
 // bound to the patch): null or empty when there is none.
-using BoxInDomain = std::function<bool(const Vec2& lo, const Vec2& hi)>;
+using BoxInDomain = std::function<bool(const Vec2& lo, const Vec2& hi, const Vec2& inside)>;
 
 // Mesh->surface: the leaf's corners matched to their projections on the surface; `lin` is the
 // leaf's bound in its own (u, v). Lowers b.m2s, sets b.m2s_seen and the candidate in res. With
@@ -650,7 +650,7 @@ void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin,
   } else if (box_in_domain && *box_in_domain) {
     Vec2 lo = q[0], hi = q[0];
     for (int i = 0; i < 3; ++i) lo = glm::min(lo, glm::min(q[i], qp[i])), hi = glm::max(hi, glm::max(q[i], qp[i]));
-    if ((*box_in_domain)(lo, hi)) b.m2s = std::min(lin, composed_bound(P, qp, X, s));
+    if ((*box_in_domain)(lo, hi, (q[0] + q[1] + q[2]) / 3.0)) b.m2s = std::min(lin, composed_bound(P, qp, X, s));
   }
   if (b.m2s > tau && !others.empty()) {
     // The leaf matched to another patch: sound for the distance to the model, and the only
@@ -1535,8 +1535,8 @@ void refine_triangles(const Refinement& rf, const Estimates& est, std::vector<Tr
         const uint32_t patch = mesh.triangle_patch[t];
         BoxInDomain box_in_domain;
         if (options.box_in_domain) {
-          box_in_domain = [&options, patch](const Vec2& lo, const Vec2& hi) {
-            return options.box_in_domain(patch, lo, hi);
+          box_in_domain = [&options, patch](const Vec2& lo, const Vec2& hi, const Vec2& inside) {
+            return options.box_in_domain(patch, lo, hi, inside);
           };
         }
         results[t] = refine_triangle(

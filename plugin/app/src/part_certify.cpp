@@ -579,25 +579,6 @@ double box_segment_distance(const Vec2& lo, const Vec2& hi, const Vec2& a, const
   return dist;
 }
 
-// Whether the box [lo, hi] of patch `local`'s (s, t) lies in the face's domain, for a box that holds a
-// point of the chords' polygon (a leaf of a piece): it must lie in the patch and clear of every
-// chord's band (2 x its deviation, as near_a_chord). The trimming curves lie in those bands, so a
-// connected set that holds a point of the domain and meets no band is in the domain.
-bool box_in_domain(const Grid& g, uint32_t local, const Vec2& lo, const Vec2& hi) {
-  if (!(lo.x >= 0.0 && lo.y >= 0.0 && hi.x <= 1.0 && hi.y <= 1.0)) return false;
-  const Vec2 a = g.to_uv(local, lo), b = g.to_uv(local, hi);
-  const Vec2 box_lo = glm::min(a, b), box_hi = glm::max(a, b), centre = 0.5 * (box_lo + box_hi);
-  const Vec2 m = g.f.chord_metric;
-  for (const occt::BoundaryChord& c : g.f.chords) {
-    const Vec2 d = c.uv_a - centre;
-    const Vec2 shift = d - periodic_difference(g, d);  // the box moved whole periods towards the chord
-    const double band = 2.0 * c.deviation + 1e-9 * g.range() * std::max(m.x, m.y);
-    if (!(box_segment_distance(m * (box_lo + shift), m * (box_hi + shift), m * c.uv_a, m * c.uv_b) > band))
-      return false;
-  }
-  return true;
-}
-
 // Face -> mesh lower bound from the points of the trimming curves (BoundaryChord::curve_points):
 // the largest distance from the face's boundary to its mesh sits there, between a chord and its curve,
 // where the triangles' own candidate points never reach.
@@ -695,6 +676,65 @@ struct Band {
 };
 
 }  // namespace sliver
+
+// The face's trimming curves for box_in_domain: per chord, its ends and its trace (the finer
+// polyline along the curve, BoundaryChord::trace) in the chord metric.
+struct TraceBand {
+  Vec2 a, b;
+  double deviation = kInf, trace_deviation = kInf;
+  std::vector<Vec2> trace;
+};
+std::vector<TraceBand> trace_bands(const Grid& g) {
+  std::vector<TraceBand> bands;
+  const Vec2 m = g.f.chord_metric;
+  for (const occt::BoundaryChord& c : g.f.chords) {
+    TraceBand band{m * c.uv_a, m * c.uv_b, c.deviation, c.trace_deviation, {}};
+    for (const Vec2& q : c.trace) band.trace.push_back(m * q);
+    // Without a usable trace the chord is its own (its curve within `deviation` of it).
+    if (!(band.trace_deviation < kInf) || band.trace.size() < 2)
+      band.trace = {band.a, band.b}, band.trace_deviation = c.deviation;
+    bands.push_back(std::move(band));
+  }
+  return bands;
+}
+
+// Whether the box [lo, hi] of patch `local`'s (s, t) lies in the face's domain D, given `inside`, a
+// point of the box in the chords' polygon P (a leaf of a piece: the pieces tile P). The box must lie
+// in the patch and meet no trimming curve: clear of every chord's trace band (the curve lies within
+// trace_deviation of its trace). It is then in D or outside it as a whole (connected), and which one
+// is D's indicator at `inside`: P's (1) flipped by every closed loop "curve - chord" that winds
+// around it, which only a loop whose chord is within its deviation can do (the loop lies in that
+// convex band), counted by even-odd crossings with the trace closed by its chord (homotopic to the
+// loop within the trace band, which misses the box). A point within 1e-6 of the range of a chord
+// (the tiling's matching tolerance) is not decided.
+bool box_in_domain(const Grid& g, const std::vector<TraceBand>& bands, uint32_t local, const Vec2& lo, const Vec2& hi,
+                   const Vec2& inside) {
+  if (!(lo.x >= 0.0 && lo.y >= 0.0 && hi.x <= 1.0 && hi.y <= 1.0)) return false;
+  const Vec2 m = g.f.chord_metric;
+  const Vec2 a = g.to_uv(local, lo), b = g.to_uv(local, hi), w = g.to_uv(local, inside);
+  const Vec2 box_lo = glm::min(a, b), box_hi = glm::max(a, b), centre = 0.5 * (box_lo + box_hi);
+  const double range = g.range() * std::max(m.x, m.y), slack = 1e-9 * range;
+  bool in = true;
+  for (size_t k = 0; k < bands.size(); ++k) {
+    const TraceBand& band = bands[k];
+    const occt::BoundaryChord& c = g.f.chords[k];
+    const Vec2 d = c.uv_a - centre;
+    const Vec2 shift = m * (d - periodic_difference(g, d));  // the box moved whole periods towards the chord
+    const Vec2 box_a = m * box_lo + shift, box_b = m * box_hi + shift, point = m * w + shift;
+    // Far from the chord: clear of its curve (within `deviation` of it) and of its trace.
+    if (box_segment_distance(box_a, box_b, band.a, band.b) > 2.0 * band.deviation + band.trace_deviation + slack)
+      continue;
+    for (size_t i = 0; i + 1 < band.trace.size(); ++i) {
+      if (!(box_segment_distance(box_a, box_b, band.trace[i], band.trace[i + 1]) > band.trace_deviation + slack))
+        return false;
+    }
+    const double to_chord = segment_distance(point, band.a, band.b);
+    if (to_chord > band.deviation) continue;
+    if (to_chord < 1e-6 * range) return false;
+    if (sliver::odd_crossings(band.trace, point)) in = !in;
+  }
+  return in;
+}
 
 void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Model& model,
                             const std::vector<Triangle>& vertices, size_t emitted,
@@ -930,9 +970,10 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   // An untrimmed face is its patches whole: a triangle may be matched to its corners' projections.
   cut.domain_contains_patches = !f.trimmed;
   // On a trimmed face, where the leaf and its corners' projections lie clear of the trimming curves.
+  const std::vector<TraceBand> bands = f.trimmed ? trace_bands(g) : std::vector<TraceBand>{};
   if (f.trimmed)
-    cut.box_in_domain = [&g](uint32_t local, const Vec2& lo, const Vec2& hi) {
-      return box_in_domain(g, local, lo, hi);
+    cut.box_in_domain = [&g, &bands](uint32_t local, const Vec2& lo, const Vec2& hi, const Vec2& inside) {
+      return box_in_domain(g, bands, local, lo, hi, inside);
     };
   DistanceReport d = certify_distance(model, pieces.mesh, cut);
   const double shallow_lower = std::max(d.mesh_to_surface.lower, d.surface_to_mesh.lower);

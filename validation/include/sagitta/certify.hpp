@@ -63,11 +63,12 @@ struct CertifyOptions {
   // patch lies in the domain), as without in_domain; the other restrictions stay.
   bool domain_contains_patches = false;
   // With in_domain (and not domain_contains_patches): true only when every point of the box
-  // [lo, hi] of patch `patch`'s (u, v) belongs to the domain. Mesh->surface may then match a leaf to
-  // its corners' projections onto its own patch where the box of the leaf's (u, v) and the
+  // [lo, hi] of patch `patch`'s (u, v) belongs to the domain; `inside` is a point of the box that
+  // lies in a mesh triangle's own (u, v) (the centroid of a leaf). Mesh->surface may then match a
+  // leaf to its corners' projections onto its own patch where the box of the leaf's (u, v) and the
   // projections is vouched for (a re-parametrised cone's triangle, whose own-(u, v) bound slides
   // along the surface). Thread safe, as in_domain.
-  std::function<bool(uint32_t patch, const Vec2& lo, const Vec2& hi)> box_in_domain;
+  std::function<bool(uint32_t patch, const Vec2& lo, const Vec2& hi, const Vec2& inside)> box_in_domain;
 };
 
 struct DistanceReport {
