@@ -345,23 +345,35 @@ struct FaceBend {
   double aspect = 1.0;
   bool flat = false;
 };
+// One patch's bending terms (face_bend): the largest second differences along u and v times d (d - 1)
+// and the largest twist times du dv, of its control net.
+struct PatchBend {
+  double u = 0.0, v = 0.0, twist = 0.0;
+};
+PatchBend patch_bend(const BezierPatch& p) {
+  PatchBend b;
+  const int du = p.degree_u, dv = p.degree_v;
+  for (int i = 0; i <= du; ++i) {
+    for (int j = 0; j <= dv; ++j) {
+      if (i + 2 <= du)
+        b.u = std::max(b.u, du * (du - 1) * glm::length(p.at(i + 2, j) - 2.0 * p.at(i + 1, j) + p.at(i, j)));
+      if (j + 2 <= dv)
+        b.v = std::max(b.v, dv * (dv - 1) * glm::length(p.at(i, j + 2) - 2.0 * p.at(i, j + 1) + p.at(i, j)));
+      if (i + 1 <= du && j + 1 <= dv)
+        b.twist =
+            std::max(b.twist, du * dv * glm::length(p.at(i + 1, j + 1) - p.at(i + 1, j) - p.at(i, j + 1) + p.at(i, j)));
+    }
+  }
+  return b;
+}
+
 FaceBend face_bend(const std::vector<BezierPatch>& patches) {
   double au = 0.0, av = 0.0, twist = 0.0;
   Vec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
   for (const BezierPatch& p : patches) {
-    const int du = p.degree_u, dv = p.degree_v;
-    for (int i = 0; i <= du; ++i) {
-      for (int j = 0; j <= dv; ++j) {
-        lo = glm::min(lo, p.at(i, j)), hi = glm::max(hi, p.at(i, j));
-        if (i + 2 <= du)
-          au = std::max(au, du * (du - 1) * glm::length(p.at(i + 2, j) - 2.0 * p.at(i + 1, j) + p.at(i, j)));
-        if (j + 2 <= dv)
-          av = std::max(av, dv * (dv - 1) * glm::length(p.at(i, j + 2) - 2.0 * p.at(i, j + 1) + p.at(i, j)));
-        if (i + 1 <= du && j + 1 <= dv)
-          twist =
-              std::max(twist, du * dv * glm::length(p.at(i + 1, j + 1) - p.at(i + 1, j) - p.at(i, j + 1) + p.at(i, j)));
-      }
-    }
+    for (const Vec3& q : p.points) lo = glm::min(lo, q), hi = glm::max(hi, q);
+    const PatchBend b = patch_bend(p);
+    au = std::max(au, b.u), av = std::max(av, b.v), twist = std::max(twist, b.twist);
   }
   FaceBend bend;
   if (!std::isfinite(au + av + twist) || patches.empty()) return bend;
@@ -424,22 +436,8 @@ bool span_meets(double a, double b, double lo, double hi, double period) {
 
 SpanNeeds span_needs(const FaceGeometry& g, int segments) {
   const int nu = g.nu, nv = g.nv;
-  std::vector<double> a(g.patches.size()), b(g.patches.size()), t(g.patches.size());
-  for (size_t p = 0; p < g.patches.size(); ++p) {
-    const BezierPatch& q = g.patches[p];
-    const int du = q.degree_u, dv = q.degree_v;
-    for (int i = 0; i <= du; ++i) {
-      for (int j = 0; j <= dv; ++j) {
-        if (i + 2 <= du)
-          a[p] = std::max(a[p], du * (du - 1) * glm::length(q.at(i + 2, j) - 2.0 * q.at(i + 1, j) + q.at(i, j)));
-        if (j + 2 <= dv)
-          b[p] = std::max(b[p], dv * (dv - 1) * glm::length(q.at(i, j + 2) - 2.0 * q.at(i, j + 1) + q.at(i, j)));
-        if (i + 1 <= du && j + 1 <= dv)
-          t[p] =
-              std::max(t[p], du * dv * glm::length(q.at(i + 1, j + 1) - q.at(i + 1, j) - q.at(i, j + 1) + q.at(i, j)));
-      }
-    }
-  }
+  std::vector<PatchBend> bends;
+  for (const BezierPatch& patch : g.patches) bends.push_back(patch_bend(patch));
   // Only the patches the trimmed domain meets decide a line's density (the (U, V) box of the face's
   // p-curves; every patch when the face's parameters are not the patches').
   const std::vector<double>& ub = g.report.u_breaks;
@@ -462,9 +460,11 @@ SpanNeeds span_needs(const FaceGeometry& g, int segments) {
   for (int i = 0; i < nu; ++i) {
     for (int j = 0; j < nv; ++j) {
       const size_t p = static_cast<size_t>(i * nv + j);
-      if (in_v[j]) need.u[i] = std::max(need.u[i], a[p]), twist_u[i] = std::max(twist_u[i], t[p]);
-      if (in_u[i]) need.v[j] = std::max(need.v[j], b[p]), twist_v[j] = std::max(twist_v[j], t[p]);
-      if (in_u[i] && in_v[j]) worst = std::max({worst, a[p], b[p]}), worst_twist = std::max(worst_twist, t[p]);
+      const PatchBend& bend = bends[p];
+      if (in_v[j]) need.u[i] = std::max(need.u[i], bend.u), twist_u[i] = std::max(twist_u[i], bend.twist);
+      if (in_u[i]) need.v[j] = std::max(need.v[j], bend.v), twist_v[j] = std::max(twist_v[j], bend.twist);
+      if (in_u[i] && in_v[j])
+        worst = std::max({worst, bend.u, bend.v}), worst_twist = std::max(worst_twist, bend.twist);
     }
   }
   // Every span needs at least its share of `segments` cells over the whole range, so that a larger
