@@ -410,6 +410,27 @@ double metric_lipschitz(const Gram& g, const Vec2& m) {
   return std::sqrt(0.5 * (a + c) + std::hypot(0.5 * (a - c), b)) * (1.0 + 8.0 * kUnit);
 }
 
+// The slivers' term of chord c (metric m): a bound on |S(p) - S(x)| for a point p between the chord
+// and its curve and x the chord's point nearest p, given the Gram bound over the band's box. p lies
+// within c.deviation of the chord; where its projection falls inside the chord, p - x is across it
+// (the normal n, at most deviation long), else beyond an end by at most c.overshoot along the chord
+// direction d and at most deviation across: |DS h| <= deviation |DS n| + overshoot |DS d|, each
+// |DS e| at most sqrt(e_u^2 uu + 2 |e_u e_v| uv + e_v^2 vv) for e in (U, V) units. The isotropic
+// bound (Lipschitz constant times deviation) where that is smaller or the chord has no length.
+double sliver_term(const Gram& gram, const Vec2& m, const occt::BoundaryChord& c) {
+  const double isotropic = metric_lipschitz(gram, m) * c.deviation;
+  const Vec2 d = m * (c.uv_b - c.uv_a);
+  const double length = glm::length(d);
+  if (!(length > 0.0) || !std::isfinite(c.overshoot)) return isotropic;
+  const Vec2 along = d / length, across(-along.y, along.x);
+  const auto speed = [&](const Vec2& e) {  // |DS e| for a unit vector e of the metric
+    const double eu = e.x / m.x, ev = e.y / m.y;
+    return std::sqrt(eu * eu * gram.uu + 2.0 * std::abs(eu * ev) * gram.uv + ev * ev * gram.vv);
+  };
+  const double directional = c.deviation * speed(across) + c.overshoot * speed(along);
+  return std::min(isotropic, directional * (1.0 + 8.0 * kUnit));
+}
+
 // Distance from p to the segment [a, b].
 double segment_distance(const Vec2& p, const Vec2& a, const Vec2& b) {
   const Vec2 d = b - a;
@@ -1011,7 +1032,7 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
       const occt::BoundaryChord& c = f.chords[k];
       const Vec2 reach = Vec2(c.deviation) / f.chord_metric;
       const Gram local = gram_over(model, grams, g, glm::min(c.uv_a, c.uv_b) - reach, glm::max(c.uv_a, c.uv_b) + reach);
-      const double term = metric_lipschitz(local, f.chord_metric) * c.deviation;
+      const double term = sliver_term(local, f.chord_metric, c);
       deviations_proven = deviations_proven && std::isfinite(term);
       fc.sliver = std::max(fc.sliver, term);
       const uint32_t t = chord_triangle[k];

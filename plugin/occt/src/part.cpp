@@ -1107,7 +1107,7 @@ BoundaryChord bound_chord(const FaceGeometry& g, const RangeCurve& rc, const Loo
     map.to_uv_error = 1e-12 * std::max(ub.back() - ub.front(), vb.back() - vb.front());
   }
   detail::ChordTrace trace;
-  c.deviation = detail::chord_deviation(rc.pc, rc.param(p.t), rc.param(q.t), map, c.uv_a, c.uv_b, &trace);
+  c.deviation = detail::chord_deviation(rc.pc, rc.param(p.t), rc.param(q.t), map, c.uv_a, c.uv_b, &trace, &c.overshoot);
   c.trace = std::move(trace.points);
   c.trace_deviation = trace.deviation;
   for (int k = 0; k < 3; ++k) {

@@ -88,6 +88,45 @@ struct Bounder {
     return d + map.to_uv_error * std::max(map.metric.x, map.metric.y);
   }
 
+  // The hull's points (metric): the control points, or through a non-identity map the corners of
+  // the mapped box (the map's own error is added by the callers).
+  std::vector<Vec2> hull_points(const Arc& arc) const {
+    std::vector<Vec2> points;
+    if (map.identity) {
+      for (const glm::dvec3& h : arc) points.push_back(mapped(euclid(h)));
+      return points;
+    }
+    Vec2 lo(kInf), hi(-kInf);
+    for (const glm::dvec3& h : arc) lo = glm::min(lo, euclid(h)), hi = glm::max(hi, euclid(h));
+    const Vec2 mid = 0.5 * (lo + hi);
+    const double u0 = mapped(Vec2(lo.x, mid.y)).x, u1 = mapped(Vec2(hi.x, mid.y)).x;
+    const double v0 = mapped(Vec2(mid.x, lo.y)).y, v1 = mapped(Vec2(mid.x, hi.y)).y;
+    for (double U : {u0, u1}) {
+      for (double V : {v0, v1}) points.push_back(Vec2(U, V));
+    }
+    return points;
+  }
+
+  // A bound of how far the arc's points project beyond [a, b]'s ends along it (<= 0: none do):
+  // the hull's, halved where it is positive (only sub-arcs at the ends can be) up to 12 times.
+  double overshoot(const Arc& arc, int depth = 0) const {
+    const Vec2 d = b - a;
+    const double length = glm::length(d);
+    if (!(length > 0.0)) return kInf;
+    const Vec2 along = d / length;
+    const double error = map.identity ? 0.0 : map.to_uv_error * std::max(map.metric.x, map.metric.y);
+    double worst = -kInf;
+    for (const Vec2& x : hull_points(arc)) {
+      const double t = glm::dot(x - a, along);
+      worst = std::max({worst, -t, t - length});
+    }
+    worst += error;
+    if (!(worst > 0.0)) return 0.0;
+    if (depth >= 12 || !std::isfinite(worst)) return worst;
+    auto [left, right] = halves(arc);
+    return std::max(overshoot(left, depth + 1), overshoot(right, depth + 1));
+  }
+
   // Branch and bound over sub-arcs (largest hull first): a sub-arc whose hull bound is within 10 %
   // of the largest curve point distance seen so far cannot raise the maximum by more, so it is not
   // split; sub-arcs at max_depth or beyond the node budget keep their hull bound. Returns the largest
@@ -140,8 +179,9 @@ struct Bounder {
 }  // namespace
 
 double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1, const ParameterMap& map,
-                       const Vec2& a_uv, const Vec2& b_uv, ChordTrace* trace) {
+                       const Vec2& a_uv, const Vec2& b_uv, ChordTrace* trace, double* overshoot) {
   if (trace) *trace = ChordTrace{{a_uv, b_uv}, kInf};
+  if (overshoot) *overshoot = kInf;
   const Vec2 a = map.metric * a_uv, b = map.metric * b_uv;
   const double scale = std::max({std::abs(a.x), std::abs(a.y), std::abs(b.x), std::abs(b.y)}) + glm::length(b - a);
   // The map's own error is part of every hull bound through it and no split removes it: the floor
@@ -154,7 +194,7 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
       const gp_Pnt2d q = pcurve->Value(p0);
       const double d = segment_distance(bounder.mapped(Vec2(q.X(), q.Y())), a, b) + map_error + rounding;
       if (trace) trace->deviation = d;
-      return d;
+      return d;  // a point: no overshoot proven (the chord's ends are the point's neighbours)
     }
     Handle(Geom2d_TrimmedCurve) piece = new Geom2d_TrimmedCurve(pcurve, std::min(p0, p1), std::max(p0, p1));
     const Handle(Geom2d_BSplineCurve) spline = Geom2dConvert::CurveToBSplineCurve(piece);
@@ -174,6 +214,11 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
       arcs.push_back(std::move(h));
     }
     if (!std::isfinite(deviation)) return kInf;
+    if (overshoot) {
+      double beyond = 0.0;
+      for (const Arc& h : arcs) beyond = std::max(beyond, bounder.overshoot(h));
+      *overshoot = std::isfinite(beyond) ? beyond + rounding : kInf;
+    }
     if (trace && (deviation <= bounder.floor || !map.identity)) {
       // A straight curve, or one through a non-identity map (not traced: its iterative map would cost
       // up to 90 % more part tessellation time): the chord is its own trace.

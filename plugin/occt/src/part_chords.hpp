@@ -44,7 +44,10 @@ struct ChordTrace {
   std::vector<Vec2> points;
   double deviation = std::numeric_limits<double>::infinity();
 };
+// With `overshoot`: also a proven bound (same metric) on how far the curve's points project beyond
+// the segment's ends along it (0 when none does; +infinity when not proven or the chord has no
+// length), from the same hulls, halved near the ends (at most 12 times).
 double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1, const ParameterMap& map,
-                       const Vec2& a_uv, const Vec2& b_uv, ChordTrace* trace = nullptr);
+                       const Vec2& a_uv, const Vec2& b_uv, ChordTrace* trace = nullptr, double* overshoot = nullptr);
 
 }  // namespace sagitta::occt::detail

@@ -513,6 +513,42 @@ TEST(AppPart, FitNeedsNoMoreTrianglesThanBRepMeshOnBug24595) {
   EXPECT_LE(fit.run.part.mesh.triangles.size(), brepmesh);
 }
 
+// The chords' overshoot (BoundaryChord::overshoot: how far the trimming curve projects beyond the
+// chord's ends along it, which with the deviation bounds the slivers' term, docs/VALIDATION.md)
+// holds against the curve's own points: the trace points of every chord of bug24595's and
+// occ22470's trimmed B-spline faces (points of the curve, from de Casteljau halvings) lie within
+// the deviation of the chord and project onto it within the overshoot of its ends.
+TEST(AppPart, ChordOvershootHoldsOnTheTrimmingCurves) {
+  for (const char* name : {"cad/step/bug24595_281390.stp", "cad/step/occ22470.igs"}) {
+    const std::string path = shared_data(name);
+    SAGITTA_REQUIRE_DATA(path);
+    const occt::PartMesh part = mesh_part(path, 2);
+    size_t checked = 0, with_overshoot = 0;
+    for (const occt::PartFace& f : part.faces) {
+      const Vec2 m = f.chord_metric;
+      for (const occt::BoundaryChord& c : f.chords) {
+        const Vec2 a = m * c.uv_a, b = m * c.uv_b;
+        const double length = glm::length(b - a);
+        if (!(length > 0.0) || c.trace.size() < 3 || !std::isfinite(c.overshoot)) continue;
+        ++checked;
+        with_overshoot += c.overshoot > 1e-9 * length ? 1 : 0;
+        const Vec2 along = (b - a) / length;
+        for (const Vec2& q : c.trace) {
+          const Vec2 x = m * q;
+          const double t = glm::dot(x - a, along);
+          EXPECT_GE(t, -c.overshoot - 1e-9 * length) << name << " " << f.name;
+          EXPECT_LE(t, length + c.overshoot + 1e-9 * length) << name << " " << f.name;
+          const double s = std::clamp(t / length, 0.0, 1.0);
+          EXPECT_LE(glm::length(x - (a + s * (b - a))), c.deviation * (1 + 1e-9) + 1e-12 * length)
+              << name << " " << f.name;
+        }
+      }
+    }
+    EXPECT_GT(checked, 50u) << name;
+    std::printf("%s: %zu traced chords checked, %zu with an overshoot above rounding\n", name, checked, with_overshoot);
+  }
+}
+
 // An open shell of untrimmed planes (FreeCAD fixture): every face covered, the part certified as a
 // whole, and its rim (the B-rep's free edges) is model boundary, not a crack.
 TEST(AppPart, UntrimmedOpenShellIsCertifiedWhole) {

@@ -54,6 +54,11 @@ struct BoundaryChord {
   // segment [uv_a, uv_b], measured in (U, V) scaled by PartFace::chord_metric (convex hull of the
   // p-curve's exact Bézier pieces); +infinity when it could not be proven.
   double deviation = std::numeric_limits<double>::infinity();
+  // Proven (same metric): how far the trimming curve's points project beyond the chord's ends along
+  // the chord (0: none does; +infinity when not proven). With the deviation it bounds the step from a
+  // sliver point to its nearest chord point: across the chord by at most `deviation`, along it by at
+  // most this (docs/VALIDATION.md, "the slivers' term").
+  double overshoot = std::numeric_limits<double>::infinity();
   // Points of the face on its trimming curve between a and b (the p-curve at 1/4, 1/2 and 3/4 of
   // the chord's parameter range, evaluated on the face's patches): lower-bound witnesses for the
   // face -> mesh distance, each within curve_point_error of the face.
