@@ -24,6 +24,7 @@
 #include <BRep_Tool.hxx>
 #include <Bnd_Box.hxx>
 #include <Geom2d_Curve.hxx>
+#include <GeomAPI_ProjectPointOnSurf.hxx>
 #include <Geom_Surface.hxx>
 #include <Precision.hxx>
 #include <TopExp.hxx>
@@ -191,13 +192,37 @@ BruteForce expect_bounds_hold(const OcctPart& occt_part, const occt::PartMesh& p
       face_to_mesh = std::max(face_to_mesh, d);
       EXPECT_LE(d, f.hausdorff.upper * (1 + 1e-9) + rounding) << name << " face point " << x.x << " " << x.y << " " << x.z;
     }
-    // mesh -> face: points of the triangles, OCCT's distance to the trimmed face.
+    // mesh -> face: points of the triangles, OCCT's distance to the trimmed face: BRepExtrema's, or
+    // the distance to the point OCCT's projection finds on the face's surface where OCCT's classifier
+    // puts it inside the face, whichever is smaller. Both are distances to points of the face, so
+    // neither is below the true distance, and a bound below the smaller is wrong. (BRepExtrema alone
+    // is not enough: on ec_exhaust-A's Faces 28 and 44, tori whose bounding box OCCT reports 10
+    // high for a tube 60 across, it gives 4.3-19 for mesh points 1.07-1.15 from points of the face
+    // that OCCT's own classifier puts inside it.)
     BRepExtrema_DistShapeShape extrema;
     extrema.SetFlag(Extrema_ExtFlag_MIN);
     extrema.LoadS2(face);
+    const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);
     const auto occt_distance = [&](const Vec3& x) {
-      extrema.LoadS1(BRepBuilderAPI_MakeVertex(gp_Pnt(x.x, x.y, x.z)).Vertex());
-      return extrema.Perform() && extrema.IsDone() ? extrema.Value() : std::numeric_limits<double>::infinity();
+      const gp_Pnt p(x.x, x.y, x.z);
+      extrema.LoadS1(BRepBuilderAPI_MakeVertex(p).Vertex());
+      double d = extrema.Perform() && extrema.IsDone() ? extrema.Value() : std::numeric_limits<double>::infinity();
+      GeomAPI_ProjectPointOnSurf projection(p, surface);
+      for (int k = 1; projection.IsDone() && k <= projection.NbPoints(); ++k) {
+        double u = 0.0, v = 0.0;
+        projection.Parameters(k, u, v);
+        // On a periodic surface the face's p-curves may lie whole periods from the projection's (u, v).
+        const double pu = surface->IsUPeriodic() ? surface->UPeriod() : 0.0,
+                     pv = surface->IsVPeriodic() ? surface->VPeriod() : 0.0;
+        for (int i = -1; i <= 1; ++i) {
+          for (int j = -1; j <= 1; ++j) {
+            if ((pu == 0.0 && i != 0) || (pv == 0.0 && j != 0)) continue;
+            const BRepClass_FaceClassifier in(face, gp_Pnt2d(u + i * pu, v + j * pv), Precision::PConfusion());
+            if (in.State() == TopAbs_IN || in.State() == TopAbs_ON) d = std::min(d, projection.Distance(k));
+          }
+        }
+      }
+      return d;
     };
     for (const Vec3& x : mesh_points(part.mesh, own)) {
       const double d = occt_distance(x);
@@ -243,6 +268,12 @@ class PartBruteForce : public testing::TestWithParam<const char*> {};
 TEST_P(PartBruteForce, CertifiedFacesHoldAgainstOcct) {
   const std::string path = shared_data(std::string("cad/step/") + GetParam());
   SAGITTA_REQUIRE_DATA(path);
+#ifdef SAGITTA_BRUTEFORCE_NO_LARGE
+  // The three parts of over 200 faces run in the Release job only (minutes of OCCT distances each).
+  for (const char* large : {"bug33398.step", "trj10_b2-oc-214.stp", "bearing.iges"}) {
+    if (std::string(GetParam()) == large) GTEST_SKIP() << "large part: Release job only";
+  }
+#endif
   const OcctPart occt_part = read_part(path);
   for (const std::string mesher : {"ours", "brepmesh", "stl"}) {
 #ifdef SAGITTA_BRUTEFORCE_NO_STL
@@ -265,7 +296,10 @@ TEST_P(PartBruteForce, CertifiedFacesHoldAgainstOcct) {
         stl.triangles.push_back({base, base + 1, base + 2});
       }
       part = occt::mesh_on_part_file(path, stl, "its STL");
-      EXPECT_EQ(part.unassigned_triangles, 0u) << GetParam();
+      // Every triangle is found on a face where BRepMesh's own mesh is crack-free; trj10's is not (69
+      // crack edges at 1e-2: its triangles on Faces 3 and 6 do not end on the hole's edge nodes, and
+      // Face 73, a sliver, has none), and 28 of its STL triangles are left unassigned.
+      if (app::validate_part(b).crack_edges == 0) EXPECT_EQ(part.unassigned_triangles, 0u) << GetParam();
     }
     const app::PartCertificate cert = app::certify_part(part);
     const std::string what = std::string(GetParam()) + " (" + mesher + ")";
@@ -282,7 +316,9 @@ TEST_P(PartBruteForce, CertifiedFacesHoldAgainstOcct) {
 
 INSTANTIATE_TEST_SUITE_P(SharedStep, PartBruteForce,
                          testing::Values("bug24595_281390.stp", "OCC2368.stp", "pr1ct.stp", "bug32745_pmi1.stp",
-                                         "trj2_io1-ct-203.stp"),
+                                         "trj2_io1-ct-203.stp", "trj4_k1_top-pe-203.stp", "ec_exhaust-A.stp",
+                                         "occ22470.igs", "UKI60998.igs", "tr10_r0901_ec.stp", "r103ec.stp",
+                                         "bug33398.step", "trj10_b2-oc-214.stp", "bearing.iges"),
                          [](const testing::TestParamInfo<const char*>& info) {
                            std::string name = info.param;
                            name = name.substr(0, name.find('.'));
