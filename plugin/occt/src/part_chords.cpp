@@ -67,44 +67,33 @@ struct Bounder {
     return map.metric * (map.identity ? uv + map.shift : map.to_uv(uv + map.shift));
   }
 
+  // Calls f(x) for each of the hull's points x (metric): the control points, or through a
+  // non-identity map the corners of the hull's (u, v) box mapped corner by corner (monotone
+  // coordinates; the map's own error, map_error(), is the caller's to add).
+  template <class F>
+  void for_each_hull_point(const Arc& arc, F&& f) const {
+    if (map.identity) {
+      for (const glm::dvec3& h : arc) f(mapped(euclid(h)));
+      return;
+    }
+    Vec2 lo(kInf), hi(-kInf);
+    for (const glm::dvec3& h : arc) lo = glm::min(lo, euclid(h)), hi = glm::max(hi, euclid(h));
+    const Vec2 mid = 0.5 * (lo + hi);
+    const double u0 = mapped(Vec2(lo.x, mid.y)).x, u1 = mapped(Vec2(hi.x, mid.y)).x;
+    const double v0 = mapped(Vec2(mid.x, lo.y)).y, v1 = mapped(Vec2(mid.x, hi.y)).y;
+    for (double U : {u0, u1}) {
+      for (double V : {v0, v1}) f(Vec2(U, V));
+    }
+  }
+  double map_error() const { return map.identity ? 0.0 : map.to_uv_error * std::max(map.metric.x, map.metric.y); }
+
   // A bound of the arc's distance to [a, b] from its control points' hull (through the map: the
   // hull's box, mapped corner by corner, plus the map's own error).
   double hull_bound(const Arc& arc) const { return hull_bound(arc, a, b); }
   double hull_bound(const Arc& arc, const Vec2& a, const Vec2& b) const {
-    if (map.identity) {
-      double d = 0.0;
-      for (const glm::dvec3& h : arc) d = std::max(d, segment_distance(mapped(euclid(h)), a, b));
-      return d;
-    }
-    Vec2 lo(kInf), hi(-kInf);
-    for (const glm::dvec3& h : arc) lo = glm::min(lo, euclid(h)), hi = glm::max(hi, euclid(h));
-    const Vec2 mid = 0.5 * (lo + hi);
-    const double u0 = mapped(Vec2(lo.x, mid.y)).x, u1 = mapped(Vec2(hi.x, mid.y)).x;
-    const double v0 = mapped(Vec2(mid.x, lo.y)).y, v1 = mapped(Vec2(mid.x, hi.y)).y;
     double d = 0.0;
-    for (double U : {u0, u1}) {
-      for (double V : {v0, v1}) d = std::max(d, segment_distance(Vec2(U, V), a, b));
-    }
-    return d + map.to_uv_error * std::max(map.metric.x, map.metric.y);
-  }
-
-  // The hull's points (metric): the control points, or through a non-identity map the corners of
-  // the mapped box (the map's own error is added by the callers).
-  std::vector<Vec2> hull_points(const Arc& arc) const {
-    std::vector<Vec2> points;
-    if (map.identity) {
-      for (const glm::dvec3& h : arc) points.push_back(mapped(euclid(h)));
-      return points;
-    }
-    Vec2 lo(kInf), hi(-kInf);
-    for (const glm::dvec3& h : arc) lo = glm::min(lo, euclid(h)), hi = glm::max(hi, euclid(h));
-    const Vec2 mid = 0.5 * (lo + hi);
-    const double u0 = mapped(Vec2(lo.x, mid.y)).x, u1 = mapped(Vec2(hi.x, mid.y)).x;
-    const double v0 = mapped(Vec2(mid.x, lo.y)).y, v1 = mapped(Vec2(mid.x, hi.y)).y;
-    for (double U : {u0, u1}) {
-      for (double V : {v0, v1}) points.push_back(Vec2(U, V));
-    }
-    return points;
+    for_each_hull_point(arc, [&](const Vec2& x) { d = std::max(d, segment_distance(x, a, b)); });
+    return d + map_error();
   }
 
   // A bound of how far the arc's points project beyond [a, b]'s ends along it (<= 0: none do):
@@ -114,13 +103,12 @@ struct Bounder {
     const double length = glm::length(d);
     if (!(length > 0.0)) return kInf;
     const Vec2 along = d / length;
-    const double error = map.identity ? 0.0 : map.to_uv_error * std::max(map.metric.x, map.metric.y);
     double worst = -kInf;
-    for (const Vec2& x : hull_points(arc)) {
+    for_each_hull_point(arc, [&](const Vec2& x) {
       const double t = glm::dot(x - a, along);
       worst = std::max({worst, -t, t - length});
-    }
-    worst += error;
+    });
+    worst += map_error();
     if (!(worst > 0.0)) return 0.0;
     if (depth >= 12 || !std::isfinite(worst)) return worst;
     auto [left, right] = halves(arc);
