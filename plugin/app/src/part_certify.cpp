@@ -1,9 +1,10 @@
 // The distance certificate of a whole part, face by face (sagitta/app/part.hpp, docs/VALIDATION.md).
+#include "sagitta/app/common.hpp"
 #include "sagitta/app/json.hpp"
 #include "sagitta/app/part.hpp"
-#include "sagitta/app/common.hpp"
 #include "sagitta/app/validate.hpp"
 #include "sagitta/budget.hpp"
+#include "sagitta/evaluate.hpp"
 #include "sagitta/grid_cut.hpp"
 
 #include <tbb/parallel_for.h>
@@ -319,37 +320,40 @@ BezierPatch sub_patch(const BezierPatch& patch, double s0, double s1, double t0,
   return sub;
 }
 
+// The cells [first, last) of `breaks` that [a, b] meets, clamped onto the grid (every cell for NaN).
+std::pair<size_t, size_t> cell_span(const std::vector<double>& breaks, double a, double b) {
+  const size_t n = breaks.size() - 1;
+  size_t first = static_cast<size_t>(std::upper_bound(breaks.begin(), breaks.end(), a) - breaks.begin());
+  size_t last = static_cast<size_t>(std::lower_bound(breaks.begin(), breaks.end(), b) - breaks.begin());
+  first = first == 0 ? 0 : std::min(first - 1, n - 1);
+  last = std::max(std::min(last, n), first + 1);
+  if (!(a == a) || !(b == b)) first = 0, last = n;  // NaN: every cell
+  return {first, last};
+}
+
+// The part of the cell [b0, b1] inside [a, b], as fractions of the cell (at least 1e-6 of it wide).
+std::pair<double, double> cell_fraction(double b0, double b1, double a, double b) {
+  double f0 = std::clamp((a - b0) / (b1 - b0), 0.0, 1.0), f1 = std::clamp((b - b0) / (b1 - b0), 0.0, 1.0);
+  if (!(f0 == f0) || !(f1 == f1)) f0 = 0.0, f1 = 1.0;
+  if (f1 - f0 < 1e-6) f0 = std::max(0.0, f1 - 1e-6), f1 = f0 + 1e-6;
+  return {f0, f1};
+}
+
 // The Gram bound over a (U, V) box [lo, hi] inside the grid's range (gram_over's core): for each
 // patch whose cell meets it, the sub-net over the part of the cell inside the box (the whole cell's
 // bound when that part is most of it), with the rounding margin. Cells are clamped onto the grid.
 Gram gram_over_in_range(const Model& model, const std::vector<Gram>& grams, const Grid& g, const Vec2& lo,
                         const Vec2& hi) {
-  const auto cells = [](const std::vector<double>& breaks, double a, double b) {
-    const size_t n = breaks.size() - 1;
-    size_t first = static_cast<size_t>(std::upper_bound(breaks.begin(), breaks.end(), a) - breaks.begin());
-    size_t last = static_cast<size_t>(std::lower_bound(breaks.begin(), breaks.end(), b) - breaks.begin());
-    first = first == 0 ? 0 : std::min(first - 1, n - 1);
-    last = std::max(std::min(last, n), first + 1);
-    if (!(a == a) || !(b == b)) first = 0, last = n;  // NaN: every cell
-    return std::pair<size_t, size_t>{first, last};
-  };
-  // The part of [b0, b1] inside [a, b], as fractions of the cell (at least 1e-6 of it wide).
-  const auto fraction = [](double b0, double b1, double a, double b) {
-    double f0 = std::clamp((a - b0) / (b1 - b0), 0.0, 1.0), f1 = std::clamp((b - b0) / (b1 - b0), 0.0, 1.0);
-    if (!(f0 == f0) || !(f1 == f1)) f0 = 0.0, f1 = 1.0;
-    if (f1 - f0 < 1e-6) f0 = std::max(0.0, f1 - 1e-6), f1 = f0 + 1e-6;
-    return std::pair<double, double>{f0, f1};
-  };
-  const auto [i0, i1] = cells(g.f.u_breaks, lo.x, hi.x);
-  const auto [j0, j1] = cells(g.f.v_breaks, lo.y, hi.y);
+  const auto [i0, i1] = cell_span(g.f.u_breaks, lo.x, hi.x);
+  const auto [j0, j1] = cell_span(g.f.v_breaks, lo.y, hi.y);
   Gram gram;
   for (size_t i = i0; i < i1; ++i) {
     for (size_t j = j0; j < j1; ++j) {
       const size_t p = i * g.nv + j;
       Gram cell = grams[p];
       const double bu0 = g.f.u_breaks[i], bu1 = g.f.u_breaks[i + 1], bv0 = g.f.v_breaks[j], bv1 = g.f.v_breaks[j + 1];
-      auto [s0, s1] = fraction(bu0, bu1, lo.x, hi.x);
-      const auto [t0, t1] = fraction(bv0, bv1, lo.y, hi.y);
+      auto [s0, s1] = cell_fraction(bu0, bu1, lo.x, hi.x);
+      const auto [t0, t1] = cell_fraction(bv0, bv1, lo.y, hi.y);
       if (s1 - s0 < 0.5 || t1 - t0 < 0.5) {
         if (g.f.reversed) std::tie(s0, s1) = std::pair<double, double>{1.0 - s1, 1.0 - s0};
         double rounding = 0.0;
@@ -383,18 +387,247 @@ std::vector<std::pair<double, double>> wrapped_intervals(double lo, double hi, d
   return out;
 }
 
+// Calls f(lo', hi') for the parts of the face's (U, V) box [lo, hi] inside the grid's range in
+// periodic directions (wrapped_intervals), each part moved there by whole periods.
+template <class F>
+void for_each_wrapped_box(const Grid& g, const Vec2& lo, const Vec2& hi, F&& f) {
+  for (const auto& [u0, u1] : wrapped_intervals(lo.x, hi.x, g.f.u_breaks.front(), g.f.u_breaks.back(), g.f.u_period)) {
+    for (const auto& [v0, v1] : wrapped_intervals(lo.y, hi.y, g.f.v_breaks.front(), g.f.v_breaks.back(), g.f.v_period))
+      f(Vec2(u0, v0), Vec2(u1, v1));
+  }
+}
+
 // The Gram bound over the face's (U, V) box [lo, hi] (see gram_over_in_range), its parts whole
 // periods away taken where they lie.
 Gram gram_over(const Model& model, const std::vector<Gram>& grams, const Grid& g, const Vec2& lo, const Vec2& hi) {
   Gram out{0.0, 0.0, 0.0};
-  for (const auto& [u0, u1] : wrapped_intervals(lo.x, hi.x, g.f.u_breaks.front(), g.f.u_breaks.back(), g.f.u_period)) {
-    for (const auto& [v0, v1] :
-         wrapped_intervals(lo.y, hi.y, g.f.v_breaks.front(), g.f.v_breaks.back(), g.f.v_period)) {
-      const Gram part = gram_over_in_range(model, grams, g, Vec2(u0, v0), Vec2(u1, v1));
-      out = {std::max(out.uu, part.uu), std::max(out.uv, part.uv), std::max(out.vv, part.vv)};
-    }
-  }
+  for_each_wrapped_box(g, lo, hi, [&](const Vec2& a, const Vec2& b) {
+    const Gram part = gram_over_in_range(model, grams, g, a, b);
+    out = {std::max(out.uu, part.uu), std::max(out.uv, part.uv), std::max(out.vv, part.vv)};
+  });
   return out;
+}
+
+// Distance from p to the triangle t (the closest point by Voronoi regions, Ericson, "Real-Time
+// Collision Detection" 5.1.5); NaN for a triangle without area. The point found lies in t up to
+// rounding: callers add a margin.
+double triangle_distance(const Vec3& p, const std::array<Vec3, 3>& t) {
+  const Vec3 &a = t[0], &b = t[1], &c = t[2];
+  const Vec3 ab = b - a, ac = c - a, ap = p - a, bp = p - b, cp = p - c;
+  const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+  if (d1 <= 0.0 && d2 <= 0.0) return glm::length(ap);
+  const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+  if (d3 >= 0.0 && d4 <= d3) return glm::length(bp);
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return glm::length(p - (a + (d1 / (d1 - d3)) * ab));
+  const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+  if (d6 >= 0.0 && d5 <= d6) return glm::length(cp);
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return glm::length(p - (a + (d2 / (d2 - d6)) * ac));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0)
+    return glm::length(p - (b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b)));
+  const double area = va + vb + vc;
+  if (!(area > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  return glm::length(p - (a + (vb / area) * ab + (vc / area) * ac));
+}
+
+// The surface point of the face at (U, V) (moved by whole periods into the grid's range, clamped
+// onto it).
+Vec3 surface_point(const Model& model, const Grid& g, Vec2 uv) {
+  const auto wrap = [](double x, double front, double back, double period) {
+    if (period > 0.0 && (x < front || x > back)) x -= period * std::floor((x - front) / period);
+    return std::clamp(x, front, back);
+  };
+  uv.x = wrap(uv.x, g.f.u_breaks.front(), g.f.u_breaks.back(), g.f.u_period);
+  uv.y = wrap(uv.y, g.f.v_breaks.front(), g.f.v_breaks.back(), g.f.v_period);
+  const size_t i = cell_span(g.f.u_breaks, uv.x, uv.x).first, j = cell_span(g.f.v_breaks, uv.y, uv.y).first;
+  double s = std::clamp((uv.x - g.f.u_breaks[i]) / (g.f.u_breaks[i + 1] - g.f.u_breaks[i]), 0.0, 1.0);
+  const double t = std::clamp((uv.y - g.f.v_breaks[j]) / (g.f.v_breaks[j + 1] - g.f.v_breaks[j]), 0.0, 1.0);
+  if (g.f.reversed) s = 1.0 - s;
+  const std::array<double, 3> p = de_casteljau<double>(model.patches[i * g.nv + j], s, t);
+  return Vec3(p[0], p[1], p[2]);
+}
+
+// The largest of distance(q) + the rounding of q over the control points q of the sub-nets of the
+// surface over the face's (U, V) box [lo, hi] (its parts whole periods away taken where they lie,
+// clamped onto the grid; per patch whose cell meets the box, de Casteljau on both ends); distance
+// also gets the control point's Greville point (U, V) and the sub-net's weight spread (w_max -
+// w_min) / w_min. With positive weights the surface over the
+// box lies in the hull of those points, so for a convex `distance` (to a convex set, or the largest
+// distance to a few points) this bounds it over the surface. `scale` sizes the rounding of
+// distance() itself. NaN when a weight is not positive.
+template <class Distance>
+double hull_max(const Model& model, const Grid& g, const Vec2& lo, const Vec2& hi, double scale, Distance&& distance) {
+  double out = 0.0;
+  for_each_wrapped_box(g, lo, hi, [&](const Vec2& box_lo, const Vec2& box_hi) {
+    const auto [i0, i1] = cell_span(g.f.u_breaks, box_lo.x, box_hi.x);
+    const auto [j0, j1] = cell_span(g.f.v_breaks, box_lo.y, box_hi.y);
+    for (size_t i = i0; i < i1; ++i) {
+      for (size_t j = j0; j < j1; ++j) {
+        auto [s0, s1] = cell_fraction(g.f.u_breaks[i], g.f.u_breaks[i + 1], box_lo.x, box_hi.x);
+        const auto [t0, t1] = cell_fraction(g.f.v_breaks[j], g.f.v_breaks[j + 1], box_lo.y, box_hi.y);
+        if (g.f.reversed) std::tie(s0, s1) = std::pair<double, double>{1.0 - s1, 1.0 - s0};
+        double rounding = 0.0;
+        const BezierPatch sub = sub_patch(model.patches[i * g.nv + j], s0, s1, t0, t1, rounding);
+        const auto at = [](int k, int n, double a, double b) {
+          return n > 1 ? a + (b - a) * k / (n - 1) : 0.5 * (a + b);
+        };
+        double w_min = kInf, w_max = 0.0;
+        for (int r = 0; r < sub.rows(); ++r) {
+          for (int c = 0; c < sub.cols(); ++c)
+            w_min = std::min(w_min, sub.weight(r, c)), w_max = std::max(w_max, sub.weight(r, c));
+        }
+        const double spread = (w_max - w_min) / w_min;
+        for (int r = 0; r < sub.rows(); ++r) {
+          for (int c = 0; c < sub.cols(); ++c) {
+            if (!(sub.weight(r, c) > 0.0)) out = std::numeric_limits<double>::quiet_NaN();
+            const Vec3& q = sub.at(r, c);
+            // The control point's Greville point in the face's (U, V) (in the patch's own frame).
+            Vec2 st(at(r, sub.rows(), s0, s1), at(c, sub.cols(), t0, t1));
+            if (g.f.reversed) st.x = 1.0 - st.x;
+            const Vec2 uv = g.to_uv(static_cast<uint32_t>(i * g.nv + j), st);
+            const double d =
+                distance(q, uv, spread) + rounding / sub.weight(r, c) + 64.0 * kUnit * (glm::length(q) + scale);
+            out = d > out || d != d ? d : out;
+          }
+        }
+      }
+    }
+  });
+  return out;
+}
+
+// Branch and bound over slices [s0, s1] of [s_lo, s_hi]: bound(s0, s1) bounds a quantity over a
+// slice and seen(s0, s1) is a value it takes there. The largest bound is halved first until it is
+// at most `enough`, within 2 % of the largest value seen, or 48 slices are left: the largest bound
+// then bounds the quantity over [s_lo, s_hi]. +infinity when a bound is NaN.
+template <class Bound, class Seen>
+double slice_bound(double s_lo, double s_hi, double enough, Bound&& bound, Seen&& seen) {
+  constexpr int kSlices = 48;
+  struct Slice {
+    double s0, s1, bound;
+    bool operator<(const Slice& o) const { return bound < o.bound; }
+  };
+  std::priority_queue<Slice> open;
+  double largest_seen = 0.0;
+  const auto push = [&](double s0, double s1) {
+    const Slice sl{s0, s1, bound(s0, s1)};
+    largest_seen = std::max(largest_seen, seen(s0, s1));
+    open.push(sl);
+    return sl.bound == sl.bound;
+  };
+  if (!push(s_lo, s_hi)) return kInf;
+  for (int slices = 1;; ++slices) {
+    const Slice top = open.top();
+    if (top.bound <= std::max(1.02 * largest_seen, enough) || slices >= kSlices) return top.bound;
+    open.pop();
+    const double mid = 0.5 * (top.s0 + top.s1);
+    if (!push(top.s0, mid) || !push(mid, top.s1)) return kInf;
+  }
+}
+
+Vec2 periodic_difference(const Grid& g, Vec2 d);
+
+// The coordinates of chord c's rectangles (metric): s along the chord from uv_a, w across it.
+struct ChordFrame {
+  Vec2 m{1.0}, a{0.0}, along{1.0, 0.0}, left{0.0, 1.0};
+  double length = 0.0;
+  ChordFrame(const Grid& g, const occt::BoundaryChord& c) : m(g.f.chord_metric), a(m * c.uv_a) {
+    const Vec2 d = m * c.uv_b - a;
+    length = glm::length(d);
+    if (length > 0.0) along = d / length, left = Vec2(-along.y, along.x);
+  }
+  Vec2 uv(double s, double w) const { return (a + s * along + w * left) / m; }
+  Vec2 sw(const Vec2& uv) const { return Vec2(glm::dot(m * uv - a, along), glm::dot(m * uv - a, left)); }
+  // The (U, V) box of {s in [s0, s1], w in [w0, w1]}, widened against the corners' rounding.
+  std::pair<Vec2, Vec2> box(const Grid& g, double s0, double s1, double w0, double w1) const {
+    Vec2 lo(kInf), hi(-kInf);
+    for (const double s : {s0, s1}) {
+      for (const double w : {w0, w1}) lo = glm::min(lo, uv(s, w)), hi = glm::max(hi, uv(s, w));
+    }
+    const Vec2 pad(1e-12 * (g.range() + glm::length(lo) + glm::length(hi)));
+    return {lo - pad, hi + pad};
+  }
+};
+
+// Face -> mesh over the slivers of chord c, whose triangle is t (docs/VALIDATION.md, "the slivers'
+// two sides"): a point x of the domain that no triangle covers lies between some chord and its
+// curve, and so in that chord's rectangle R = {s in [-overshoot, length + overshoot], w in [-right,
+// left]} (ChordFrame), which holds both. Its surface point is within dist(S(x), t) of the mesh:
+// slice_bound over R of hull_max of the distance to t (convex). +infinity when not proven.
+double sliver_to_triangle(const Model& model, const Grid& g, const occt::BoundaryChord& c, const std::array<Vec3, 3>& t,
+                          double enough) {
+  const ChordFrame frame(g, c);
+  if (!(frame.length > 0.0) || !std::isfinite(c.overshoot) || !std::isfinite(c.left) || !std::isfinite(c.right))
+    return kInf;
+  const double t_size = std::max({glm::length(t[0]), glm::length(t[1]), glm::length(t[2])});
+  const auto to_t = [&](const Vec3& q, const Vec2& = {}, double = 0.0) { return triangle_distance(q, t); };
+  return slice_bound(
+      -c.overshoot, frame.length + c.overshoot, enough,
+      [&](double s0, double s1) {
+        const auto [lo, hi] = frame.box(g, s0, s1, -c.right, c.left);
+        return hull_max(model, g, lo, hi, t_size, to_t);
+      },
+      [&](double s0, double s1) {
+        return to_t(surface_point(model, g, frame.uv(0.5 * (s0 + s1), 0.5 * (c.left - c.right))));
+      });
+}
+
+// Mesh -> face over the part {w in [w0, w1]} of chord c's rectangle (s in [s_lo, s_hi]) for a
+// triangle x of the face that meets it, given by its corners' (s, w) and 3D points (docs/VALIDATION.md,
+// "the slivers' two sides"). A point y = (s, w_y) of x over (U, V) outside the domain there lies
+// between the chord's point y0 = (s, 0) and a point q = (s, w_q) of the curve straight across, and
+// S(q) belongs to the face. With M x's affine map (extended beyond x), M(y) = (1 - a) M(y0) + a M(q),
+// so dist(M(y), F) <= |M(y) - S(q)| <= max(|M(y0) - S(q)|, |M(q) - S(q)|). Both are |S(p) - A(p)|
+// at p = q for an affine A (A(s, w) = M(s, 0), and M), bounded over a slice from the sub-nets over
+// its box by the largest |P - A(g)| over control points P and their Greville points g (an affine
+// map's Bernstein coefficients are its values there; for rational nets plus A's Lipschitz constant
+// times the box's size times the weights' spread (w_max - w_min) / w_min, as the rational surface
+// point is the w B-weighted average of the P and p that of the g only up to that; for a direction
+// of degree 0, plus A's Lipschitz constant times the box's size). The slices' bound is within a second-order
+// term of the truth, where base + width x speed adds the two first-order errors. +infinity when x
+// has no area in (U, V).
+double across_to_curve(const Model& model, const Grid& g, const ChordFrame& frame, const std::array<Vec2, 3>& x_sw,
+                       const std::array<Vec3, 3>& x_3d, double s_lo, double s_hi, double w0, double w1, double enough) {
+  const Vec2 e1 = x_sw[1] - x_sw[0], e2 = x_sw[2] - x_sw[0];
+  const double det = e1.x * e2.y - e1.y * e2.x;
+  if (!(std::abs(det) > 0.0) || !(s_hi > s_lo)) return kInf;
+  const Vec3 d1 = x_3d[1] - x_3d[0], d2 = x_3d[2] - x_3d[0];
+  const auto mesh_point = [&](const Vec2& sw) {
+    const Vec2 r = sw - x_sw[0];
+    return x_3d[0] + ((r.x * e2.y - r.y * e2.x) / det) * d1 + ((e1.x * r.y - e1.y * r.x) / det) * d2;
+  };
+  const Vec3 along = (e2.y * d1 - e1.y * d2) / det, across = (e1.x * d2 - e2.x * d1) / det;
+  const double lipschitz = std::sqrt(glm::dot(along, along) + glm::dot(across, across)) * (1.0 + 1e-12);
+  bool exact_coefficients = true;  // nets of degree >= 1 both ways (rational: up to the weights' spread)
+  for (const BezierPatch& p : model.patches)
+    exact_coefficients = exact_coefficients && p.degree_u >= 1 && p.degree_v >= 1;
+  double scale = 0.0;
+  for (const Vec3& p : x_3d) scale = std::max(scale, glm::length(p));
+  // The affine map's rounding: a few units of its corners' size, relative to how far it reaches.
+  const double reach = frame.length + std::abs(w0) + std::abs(w1) + glm::length(e1) + glm::length(e2);
+  const double map_rounding = 64.0 * kUnit * (scale + lipschitz * reach);
+  const Vec2 a_uv = frame.a / frame.m;
+  return slice_bound(
+      s_lo, s_hi, enough,
+      [&](double s0, double s1) {
+        const auto [lo, hi] = frame.box(g, s0, s1, w0, w1);
+        const double size = glm::length(frame.m * (hi - lo));
+        return hull_max(model, g, lo, hi, scale,
+                        [&](const Vec3& q, const Vec2& uv, double spread) {
+                          const Vec2 sw = frame.sw(a_uv + periodic_difference(g, uv - a_uv));
+                          const double to_chord = glm::length(q - mesh_point(Vec2(sw.x, 0.0)));
+                          const double to_map = glm::length(q - mesh_point(sw));
+                          return std::max(to_chord, to_map) + (exact_coefficients ? spread : 1.0) * lipschitz * size;
+                        }) +
+               map_rounding;
+      },
+      [&](double s0, double s1) {
+        const double s = 0.5 * (s0 + s1);
+        return glm::length(mesh_point(Vec2(s, 0.0)) -
+                           surface_point(model, g, frame.uv(s, std::abs(w0) > std::abs(w1) ? w0 : w1)));
+      });
 }
 
 Gram face_gram(const std::vector<Gram>& grams, const Grid& g) {
@@ -429,6 +662,16 @@ double sliver_term(const Gram& gram, const Vec2& m, const occt::BoundaryChord& c
   };
   const double directional = c.deviation * speed(across) + c.overshoot * speed(along);
   return std::min(isotropic, directional * (1.0 + 8.0 * kUnit));
+}
+
+// |DS n| for the unit vector n (metric m) across chord c: at most sqrt(n_u^2 uu + 2 |n_u n_v| uv +
+// n_v^2 vv) in (U, V) units; the Lipschitz bound when the chord has no length.
+double across_speed(const Gram& gram, const Vec2& m, const occt::BoundaryChord& c) {
+  const Vec2 d = m * (c.uv_b - c.uv_a);
+  const double length = glm::length(d);
+  if (!(length > 0.0)) return metric_lipschitz(gram, m);
+  const double eu = -d.y / length / m.x, ev = d.x / length / m.y;
+  return std::sqrt(eu * eu * gram.uu + 2.0 * std::abs(eu * ev) * gram.uv + ev * ev * gram.vv) * (1.0 + 8.0 * kUnit);
 }
 
 // Distance from p to the segment [a, b].
@@ -599,6 +842,65 @@ double box_segment_distance(const Vec2& lo, const Vec2& hi, const Vec2& a, const
   for (const Vec2& c : {lo, hi, Vec2(lo.x, hi.y), Vec2(hi.x, lo.y)}) dist = std::min(dist, segment_distance(c, a, b));
   return dist;
 }
+
+// Chord c's rectangle {s in [-overshoot, length + overshoot], w in [-right, left]} (ChordFrame),
+// which holds its curve, split by the chord's line into the part on the side of the chord's
+// triangle (width `inner`) and the other (`outer`). Without proven sides both widths are the
+// deviation (the curve lies within it of the chord).
+struct ChordRectangle {
+  ChordFrame frame;
+  double overshoot = kInf, inner = kInf, outer = kInf;
+  double toward = 1.0;  // +1: the triangle lies on the left (w > 0), -1: on the right
+  ChordRectangle(const Grid& g, const occt::BoundaryChord& c, const std::array<Vec2, 3>& triangle_uv)
+      : frame(g, c),
+        overshoot(std::isfinite(c.overshoot) ? c.overshoot : c.deviation),
+        inner(c.deviation),
+        outer(c.deviation) {
+    double side = 0.0;  // the triangle's corners off the chord's line (the chord's two are on it)
+    for (const Vec2& w : corners(g, triangle_uv)) side += w.y;
+    toward = side >= 0.0 ? 1.0 : -1.0;
+    if (side != 0.0 && frame.length > 0.0 && std::isfinite(c.left) && std::isfinite(c.right)) {
+      inner = side > 0.0 ? c.left : c.right;
+      outer = side > 0.0 ? c.right : c.left;
+    }
+  }
+  // A triangle's corners in (s, w), the triangle moved by whole periods next to the chord.
+  std::array<Vec2, 3> corners(const Grid& g, const std::array<Vec2, 3>& q) const {
+    const Vec2 a_uv = frame.a / frame.m;
+    const Vec2 shift = periodic_difference(g, q[0] - a_uv) - (q[0] - a_uv);
+    return {frame.sw(q[0] + shift), frame.sw(q[1] + shift), frame.sw(q[2] + shift)};
+  }
+  // w-ranges of the two parts.
+  std::pair<double, double> inner_w() const { return toward > 0.0 ? std::pair{0.0, inner} : std::pair{-inner, 0.0}; }
+  std::pair<double, double> outer_w() const { return toward > 0.0 ? std::pair{-outer, 0.0} : std::pair{0.0, outer}; }
+  // Whether the triangle with corners p ((s, w)) meets the part's interior (a triangle touching it
+  // along its boundary does not): separating axes of a triangle and a rectangle, the two axes and
+  // the triangle's edge normals. A chord without length: the triangle's box within the width of
+  // the chord's point.
+  bool meets(const std::array<Vec2, 3>& p, std::pair<double, double> w) const {
+    if (!(frame.length > 0.0)) {
+      const Vec2 lo = glm::min(glm::min(p[0], p[1]), p[2]), hi = glm::max(glm::max(p[0], p[1]), p[2]);
+      return glm::length(glm::max(glm::max(lo, -hi), Vec2(0.0))) <= std::max(-w.first, w.second);
+    }
+    const Vec2 lo(-overshoot, w.first), hi(frame.length + overshoot, w.second);
+    if (!(hi.x > lo.x) || !(hi.y > lo.y)) return false;
+    for (int k = 0; k < 2; ++k) {
+      const double mn = std::min({p[0][k], p[1][k], p[2][k]}), mx = std::max({p[0][k], p[1][k], p[2][k]});
+      if (mx <= lo[k] || mn >= hi[k]) return false;
+    }
+    for (int i = 0; i < 3; ++i) {
+      const Vec2 e = p[(i + 1) % 3] - p[i], n(-e.y, e.x);
+      const double own = glm::dot(p[(i + 2) % 3] - p[i], n);
+      double r_min = kInf, r_max = -kInf;
+      for (const Vec2& r : {lo, hi, Vec2(lo.x, hi.y), Vec2(hi.x, lo.y)}) {
+        const double x = glm::dot(r - p[i], n);
+        r_min = std::min(r_min, x), r_max = std::max(r_max, x);
+      }
+      if ((own >= 0.0 && r_max <= 0.0) || (own <= 0.0 && r_min >= 0.0)) return false;
+    }
+    return true;
+  }
+};
 
 // Face -> mesh lower bound from the points of the trimming curves (BoundaryChord::curve_points):
 // the largest distance from the face's boundary to its mesh sits there, between a chord and its curve,
@@ -1034,10 +1336,46 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
       const Gram local = gram_over(model, grams, g, glm::min(c.uv_a, c.uv_b) - reach, glm::max(c.uv_a, c.uv_b) + reach);
       const double term = sliver_term(local, f.chord_metric, c);
       deviations_proven = deviations_proven && std::isfinite(term);
-      fc.sliver = std::max(fc.sliver, term);
       const uint32_t t = chord_triangle[k];
-      upper[t] = std::max(upper[t], base[t] + term + gap);
+      const ChordRectangle rect(g, c, corner_uv[t]);
+      const auto corners_3d = [&](size_t x) {
+        std::array<Vec3, 3> p;
+        for (int i = 0; i < 3; ++i) p[i] = part.mesh.positions[vertices[x][i]];
+        return p;
+      };
+      // Face -> mesh: the first-order term, or the slices' bound against the chord's triangle.
+      double to_mesh = base[t] + term;
+      if (t < triangles.size() && c.a != c.b && term > 0.02 * base[t])
+        to_mesh = std::min(to_mesh, sliver_to_triangle(model, g, c, corners_3d(t), base[t]));
+      // Mesh -> face: a mesh point over (U, V) outside the domain near this chord lies in a triangle
+      // meeting the rectangle's part on the chord triangle's side (width `inner`) or, past a reflex
+      // corner, the other part (`outer`), and within that width of the curve straight across: the
+      // first-order bound, or the slices' bound between the triangle and the curve.
+      const double speed = across_speed(local, f.chord_metric, c);
+      const auto from_mesh = [&](size_t x, const std::array<Vec2, 3>& p, double width, std::pair<double, double> w) {
+        double bound = base[x] + width * speed;
+        if (x < triangles.size() && rect.frame.length > 0.0 && width * speed > 0.02 * base[x]) {
+          const double s0 = std::max(-rect.overshoot, std::min({p[0].x, p[1].x, p[2].x}));
+          const double s1 = std::min(rect.frame.length + rect.overshoot, std::max({p[0].x, p[1].x, p[2].x}));
+          const double across =
+              across_to_curve(model, g, rect.frame, p, corners_3d(x), s0, s1, w.first, w.second, base[x]);
+          bound = std::min(bound, std::max(base[x], across));
+        }
+        return bound;
+      };
+      const double own = from_mesh(t, rect.corners(g, corner_uv[t]), rect.inner, rect.inner_w());
+      fc.sliver = std::max({fc.sliver, to_mesh - base[t], own - base[t]});
+      upper[t] = std::max({upper[t], to_mesh + gap, own + gap});
       face_upper = std::max(face_upper, upper[t]);
+      for (size_t x = 0; x < vertices.size(); ++x) {
+        if (x == t) continue;
+        const std::array<Vec2, 3> p = rect.corners(g, corner_uv[x]);
+        double bound = 0.0;
+        if (rect.meets(p, rect.inner_w())) bound = from_mesh(x, p, rect.inner, rect.inner_w());
+        if (rect.meets(p, rect.outer_w())) bound = std::max(bound, from_mesh(x, p, rect.outer, rect.outer_w()));
+        upper[x] = std::max(upper[x], bound + gap);
+        face_upper = std::max(face_upper, upper[x]);
+      }
     }
   }
   fc.mesh_to_surface = d.mesh_to_surface;

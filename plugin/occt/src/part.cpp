@@ -1107,7 +1107,10 @@ BoundaryChord bound_chord(const FaceGeometry& g, const RangeCurve& rc, const Loo
     map.to_uv_error = 1e-12 * std::max(ub.back() - ub.front(), vb.back() - vb.front());
   }
   detail::ChordTrace trace;
-  c.deviation = detail::chord_deviation(rc.pc, rc.param(p.t), rc.param(q.t), map, c.uv_a, c.uv_b, &trace, &c.overshoot);
+  detail::ChordSides sides;
+  c.deviation =
+      detail::chord_deviation(rc.pc, rc.param(p.t), rc.param(q.t), map, c.uv_a, c.uv_b, &trace, &c.overshoot, &sides);
+  c.left = sides.left, c.right = sides.right;
   c.trace = std::move(trace.points);
   c.trace_deviation = trace.deviation;
   for (int k = 0; k < 3; ++k) {
@@ -1119,7 +1122,7 @@ BoundaryChord bound_chord(const FaceGeometry& g, const RangeCurve& rc, const Loo
     c.curve_point_error = std::max(c.curve_point_error, 1e-12 * size);
   }
   if (rc.reversed) {  // along the loop
-    std::swap(c.a, c.b), std::swap(c.uv_a, c.uv_b);
+    std::swap(c.a, c.b), std::swap(c.uv_a, c.uv_b), std::swap(c.left, c.right);
     std::reverse(c.trace.begin(), c.trace.end());
   }
   return c;

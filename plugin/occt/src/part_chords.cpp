@@ -115,6 +115,41 @@ struct Bounder {
     return std::max(overshoot(left, depth + 1), overshoot(right, depth + 1));
   }
 
+  // A bound of how far the arc's points lie on one side of the line through [a, b] (side +1: the
+  // left of a -> b, -1: the right; 0 when none do): branch and bound over sub-arcs, the largest hull
+  // value first, until it is at most 10 % above the largest curve point value seen (midpoints), at
+  // most `enough` or the floor, or 32 sub-arcs have been split; the largest hull value left is the
+  // bound.
+  double side(const Arc& arc, double sign, double enough) const {
+    const Vec2 d = b - a;
+    const double length = glm::length(d);
+    if (!(length > 0.0)) return kInf;
+    const Vec2 left(-d.y / length, d.x / length);
+    const auto hull = [&](const Arc& h) {
+      double worst = -kInf;
+      for_each_hull_point(h, [&](const Vec2& x) { worst = std::max(worst, sign * glm::dot(x - a, left)); });
+      return worst + map_error();
+    };
+    struct Node {
+      double hull;
+      Arc arc;
+      bool operator<(const Node& o) const { return hull < o.hull; }
+    };
+    std::priority_queue<Node> open;
+    open.push({hull(arc), arc});
+    double seen = 0.0;
+    for (int nodes = 0;; nodes += 2) {
+      const Node& top = open.top();
+      seen = std::max(seen, sign * glm::dot(mapped(midpoint(top.arc)) - a, left));
+      if (!(top.hull > std::max(floor, enough)) || top.hull <= 1.1 * seen || nodes >= 2 * 32)
+        return std::max(top.hull, 0.0);
+      auto [l, r] = halves(top.arc);
+      open.pop();
+      open.push({hull(l), std::move(l)});
+      open.push({hull(r), std::move(r)});
+    }
+  }
+
   // Branch and bound over sub-arcs (largest hull first): a sub-arc whose hull bound is within 10 %
   // of the largest curve point distance seen so far cannot raise the maximum by more, so it is not
   // split; sub-arcs at max_depth or beyond the node budget keep their hull bound. Returns the largest
@@ -167,9 +202,10 @@ struct Bounder {
 }  // namespace
 
 double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1, const ParameterMap& map,
-                       const Vec2& a_uv, const Vec2& b_uv, ChordTrace* trace, double* overshoot) {
+                       const Vec2& a_uv, const Vec2& b_uv, ChordTrace* trace, double* overshoot, ChordSides* sides) {
   if (trace) *trace = ChordTrace{{a_uv, b_uv}, kInf};
   if (overshoot) *overshoot = kInf;
+  if (sides) *sides = ChordSides{};
   const Vec2 a = map.metric * a_uv, b = map.metric * b_uv;
   const double scale = std::max({std::abs(a.x), std::abs(a.y), std::abs(b.x), std::abs(b.y)}) + glm::length(b - a);
   // The map's own error is part of every hull bound through it and no split removes it: the floor
@@ -206,6 +242,20 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
       double beyond = 0.0;
       for (const Arc& h : arcs) beyond = std::max(beyond, bounder.overshoot(h));
       *overshoot = std::isfinite(beyond) ? beyond + rounding : kInf;
+    }
+    if (sides) {
+      // The side the curve bulges to (that of its middle point) keeps the deviation (the curve lies
+      // within it of the segment, so of its line); the other side is bounded by the hulls, to 1/64
+      // of the deviation (as good as none for the certificate's terms).
+      const Arc& middle = arcs[arcs.size() / 2];
+      const Vec2 d = b - a, left(-d.y, d.x);
+      const double bulge = glm::dot(bounder.mapped(midpoint(middle)) - a, left) >= 0.0 ? 1.0 : -1.0;
+      double other = 0.0;
+      for (const Arc& h : arcs) other = std::max(other, bounder.side(h, -bulge, deviation / 64.0));
+      if (std::isfinite(other)) {
+        const double bulging = deviation + rounding, opposite = std::min(other, deviation) + rounding;
+        *sides = bulge > 0.0 ? ChordSides{bulging, opposite} : ChordSides{opposite, bulging};
+      }
     }
     if (trace && (deviation <= bounder.floor || !map.identity)) {
       // A straight curve, or one through a non-identity map (not traced: its iterative map would cost

@@ -47,7 +47,16 @@ struct ChordTrace {
 // With `overshoot`: also a proven bound (same metric) on how far the curve's points project beyond
 // the segment's ends along it (0 when none does; +infinity when not proven or the chord has no
 // length), from the same hulls, halved near the ends (at most 12 times).
+// With `sides`: also proven bounds (same metric) on how far the curve's points lie to the left and
+// to the right of the line through a and b (left: +90 degrees from b - a; +infinity when not
+// proven): the deviation on the side the curve's middle point lies on, and on the other side a
+// bound from the same hulls, halved where they touch or cross the line (0 when the curve does not
+// reach it).
+struct ChordSides {
+  double left = std::numeric_limits<double>::infinity(), right = std::numeric_limits<double>::infinity();
+};
 double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1, const ParameterMap& map,
-                       const Vec2& a_uv, const Vec2& b_uv, ChordTrace* trace = nullptr, double* overshoot = nullptr);
+                       const Vec2& a_uv, const Vec2& b_uv, ChordTrace* trace = nullptr, double* overshoot = nullptr,
+                       ChordSides* sides = nullptr);
 
 }  // namespace sagitta::occt::detail

@@ -517,13 +517,14 @@ TEST(AppPart, FitNeedsNoMoreTrianglesThanBRepMeshOnBug24595) {
 // chord's ends along it, which with the deviation bounds the slivers' term, docs/VALIDATION.md)
 // holds against the curve's own points: the trace points of every chord of bug24595's and
 // occ22470's trimmed B-spline faces (points of the curve, from de Casteljau halvings) lie within
-// the deviation of the chord and project onto it within the overshoot of its ends.
+// the deviation of the chord, project onto it within the overshoot of its ends, and lie within its
+// proven sides (BoundaryChord::left / right) of the chord's line.
 TEST(AppPart, ChordOvershootHoldsOnTheTrimmingCurves) {
   for (const char* name : {"cad/step/bug24595_281390.stp", "cad/step/occ22470.igs"}) {
     const std::string path = shared_data(name);
     SAGITTA_REQUIRE_DATA(path);
     const occt::PartMesh part = mesh_part(path, 2);
-    size_t checked = 0, with_overshoot = 0;
+    size_t checked = 0, with_overshoot = 0, one_sided = 0;
     for (const occt::PartFace& f : part.faces) {
       const Vec2 m = f.chord_metric;
       for (const occt::BoundaryChord& c : f.chords) {
@@ -532,10 +533,15 @@ TEST(AppPart, ChordOvershootHoldsOnTheTrimmingCurves) {
         if (!(length > 0.0) || c.trace.size() < 3 || !std::isfinite(c.overshoot)) continue;
         ++checked;
         with_overshoot += c.overshoot > 1e-9 * length ? 1 : 0;
-        const Vec2 along = (b - a) / length;
+        const Vec2 along = (b - a) / length, left(-along.y, along.x);
+        ASSERT_TRUE(std::isfinite(c.left) && std::isfinite(c.right)) << name << " " << f.name;
+        EXPECT_LE(std::max(c.left, c.right), c.deviation * (1 + 1e-9) + 1e-12 * length) << name << " " << f.name;
+        one_sided += std::min(c.left, c.right) <= 1e-9 * length ? 1 : 0;
         for (const Vec2& q : c.trace) {
           const Vec2 x = m * q;
           const double t = glm::dot(x - a, along);
+          EXPECT_LE(glm::dot(x - a, left), c.left + 1e-12 * length) << name << " " << f.name;
+          EXPECT_GE(glm::dot(x - a, left), -c.right - 1e-12 * length) << name << " " << f.name;
           EXPECT_GE(t, -c.overshoot - 1e-9 * length) << name << " " << f.name;
           EXPECT_LE(t, length + c.overshoot + 1e-9 * length) << name << " " << f.name;
           const double s = std::clamp(t / length, 0.0, 1.0);
@@ -545,8 +551,36 @@ TEST(AppPart, ChordOvershootHoldsOnTheTrimmingCurves) {
       }
     }
     EXPECT_GT(checked, 50u) << name;
-    std::printf("%s: %zu traced chords checked, %zu with an overshoot above rounding\n", name, checked, with_overshoot);
+    // Most curves bulge to one side of their chord (C-shaped between two samples).
+    EXPECT_GT(one_sided, checked / 2) << name;
+    std::printf("%s: %zu traced chords checked, %zu with an overshoot above rounding, %zu on one side\n", name, checked,
+                with_overshoot, one_sided);
   }
+}
+
+// The slivers' bounds against the chord's triangle (docs/VALIDATION.md, "the slivers' two sides"):
+// four of bug33398's trimmed spheres at level 2 have curves that bulge away from their triangles
+// (0 on the triangle's side, BoundaryChord::left / right), so the mesh covers nothing outside the
+// face there and the face points in the slivers are bounded by the slices against the triangle:
+// upper / lower 1.05 where the first-order term (deviation x speed added to the triangle's own
+// bound) gave 1.59. The brute-force suite checks that the bounds hold.
+TEST(AppPart, SliverSlicesTightenTrimmedSpheres) {
+  const std::string path = shared_data("cad/step/bug33398.step");
+  SAGITTA_REQUIRE_DATA(path);
+  const occt::PartMesh part = mesh_part(path, 2);
+  const app::PartCertificate cert = app::certify_part(part);
+  int spheres = 0;
+  for (const app::FaceCertificate& f : cert.faces) {
+    const occt::PartFace& face = part.faces[static_cast<size_t>(f.face)];
+    if (face.name != "Face 303" && face.name != "Face 308" && face.name != "Face 328" && face.name != "Face 334")
+      continue;
+    ASSERT_EQ(face.surface_type, "Sphere");
+    ASSERT_TRUE(face.trimmed) << face.name;
+    ++spheres;
+    ASSERT_TRUE(f.certified) << face.name;
+    EXPECT_LE(f.hausdorff.upper, 1.1 * f.hausdorff.lower) << face.name << " sliver " << f.sliver;
+  }
+  EXPECT_EQ(spheres, 4);
 }
 
 // An open shell of untrimmed planes (FreeCAD fixture): every face covered, the part certified as a

@@ -59,6 +59,11 @@ struct BoundaryChord {
   // sliver point to its nearest chord point: across the chord by at most `deviation`, along it by at
   // most this (docs/VALIDATION.md, "the slivers' term").
   double overshoot = std::numeric_limits<double>::infinity();
+  // Proven (same metric): how far the trimming curve's points lie to the left / to the right of the
+  // chord's line, looking from uv_a to uv_b (0: none do; +infinity when not proven). A curve that
+  // bulges only away from the chord's triangle has 0 (up to rounding) on the triangle's side: the
+  // mesh there covers no point outside the face (docs/VALIDATION.md, "the slivers' two sides").
+  double left = std::numeric_limits<double>::infinity(), right = std::numeric_limits<double>::infinity();
   // Points of the face on its trimming curve between a and b (the p-curve at 1/4, 1/2 and 3/4 of
   // the chord's parameter range, evaluated on the face's patches): lower-bound witnesses for the
   // face -> mesh distance, each within curve_point_error of the face.
