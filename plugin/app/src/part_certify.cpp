@@ -1373,6 +1373,7 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
         double bound = 0.0;
         if (rect.meets(p, rect.inner_w())) bound = from_mesh(x, p, rect.inner, rect.inner_w());
         if (rect.meets(p, rect.outer_w())) bound = std::max(bound, from_mesh(x, p, rect.outer, rect.outer_w()));
+        if (bound > 0.0) fc.sliver = std::max(fc.sliver, bound - base[x]);
         upper[x] = std::max(upper[x], bound + gap);
         face_upper = std::max(face_upper, upper[x]);
       }

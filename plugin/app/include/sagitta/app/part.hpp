@@ -67,7 +67,7 @@ struct FaceCertificate {
   std::string reason;       // why not certified ("" when certified)
   DistanceInterval mesh_to_surface, surface_to_mesh, hausdorff;  // face <-> its own triangles
   double upper = 0.0;       // hausdorff.upper when certified
-  double sliver = 0.0;      // loops route: the most the slivers add to a chord's triangle's own bound, model units
+  double sliver = 0.0;      // loops route: the most the slivers add to a triangle's own bound, model units
   // loops route: the triangles' own mesh -> surface bound (each point against the surface at its
   // own (u, v), or at its leaf's projections where they lie in the domain), before the sliver term
   // is added to the triangles on the chords; not by itself a bound of the face (a point over a
