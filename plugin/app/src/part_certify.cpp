@@ -650,28 +650,31 @@ double metric_lipschitz(const Gram& g, const Vec2& m) {
 // direction d and at most deviation across: |DS h| <= deviation |DS n| + overshoot |DS d|, each
 // |DS e| at most sqrt(e_u^2 uu + 2 |e_u e_v| uv + e_v^2 vv) for e in (U, V) units. The isotropic
 // bound (Lipschitz constant times deviation) where that is smaller or the chord has no length.
+// |DS e| for a unit vector e of the metric m, before the rounding margin: at most sqrt(e_u^2 uu +
+// 2 |e_u e_v| uv + e_v^2 vv) with e in (U, V) units.
+double direction_speed(const Gram& gram, const Vec2& m, const Vec2& e) {
+  const double eu = e.x / m.x, ev = e.y / m.y;
+  return std::sqrt(eu * eu * gram.uu + 2.0 * std::abs(eu * ev) * gram.uv + ev * ev * gram.vv);
+}
+
 double sliver_term(const Gram& gram, const Vec2& m, const occt::BoundaryChord& c) {
   const double isotropic = metric_lipschitz(gram, m) * c.deviation;
   const Vec2 d = m * (c.uv_b - c.uv_a);
   const double length = glm::length(d);
   if (!(length > 0.0) || !std::isfinite(c.overshoot)) return isotropic;
   const Vec2 along = d / length, across(-along.y, along.x);
-  const auto speed = [&](const Vec2& e) {  // |DS e| for a unit vector e of the metric
-    const double eu = e.x / m.x, ev = e.y / m.y;
-    return std::sqrt(eu * eu * gram.uu + 2.0 * std::abs(eu * ev) * gram.uv + ev * ev * gram.vv);
-  };
-  const double directional = c.deviation * speed(across) + c.overshoot * speed(along);
+  const double directional =
+      c.deviation * direction_speed(gram, m, across) + c.overshoot * direction_speed(gram, m, along);
   return std::min(isotropic, directional * (1.0 + 8.0 * kUnit));
 }
 
-// |DS n| for the unit vector n (metric m) across chord c: at most sqrt(n_u^2 uu + 2 |n_u n_v| uv +
-// n_v^2 vv) in (U, V) units; the Lipschitz bound when the chord has no length.
+// |DS n| for the unit vector n (metric m) across chord c (direction_speed with the rounding
+// margin); the Lipschitz bound when the chord has no length.
 double across_speed(const Gram& gram, const Vec2& m, const occt::BoundaryChord& c) {
   const Vec2 d = m * (c.uv_b - c.uv_a);
   const double length = glm::length(d);
   if (!(length > 0.0)) return metric_lipschitz(gram, m);
-  const double eu = -d.y / length / m.x, ev = d.x / length / m.y;
-  return std::sqrt(eu * eu * gram.uu + 2.0 * std::abs(eu * ev) * gram.uv + ev * ev * gram.vv) * (1.0 + 8.0 * kUnit);
+  return direction_speed(gram, m, Vec2(-d.y / length, d.x / length)) * (1.0 + 8.0 * kUnit);
 }
 
 // Distance from p to the segment [a, b].
