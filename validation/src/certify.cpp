@@ -8,8 +8,9 @@
 #include "sagitta/evaluate.hpp"
 
 #include <CGAL/box_intersection_d.h>
-#include <glm/geometric.hpp>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+#include <glm/geometric.hpp>
 
 #include <algorithm>
 #include <array>
@@ -1137,15 +1138,24 @@ void certify_lowers(const Model& model, const Tessellation& mesh, const std::vec
   std::partial_sort(order.begin(), order.begin() + static_cast<long>(k), order.end(),
                     [&](size_t a, size_t b) { return results[a].m2s_est > results[b].m2s_est; });
   std::vector<double> low(k, 0.0);
-  tbb::parallel_for(size_t(0), k, [&](size_t i) {
-    const TriangleResult& r = results[order[i]];
-    low[i] = detail::certified_distance_lower(model, r.m2s_point, r.m2s_est * 0.995, options.lower_node_budget);
-  });
-  for (size_t i = 0; i < k; ++i) {
-    if (low[i] > report.mesh_to_surface.lower) {
-      report.mesh_to_surface.lower = low[i];
-      report.mesh_to_surface.witness = results[order[i]].m2s_point;
-      report.mesh_to_surface.witness_patch = mesh.triangle_patch.empty() ? -1 : mesh.triangle_patch[order[i]];
+  // Each candidate's bound is at most its target (0.995 of its estimate), and the targets decrease:
+  // candidates are taken a few at a time (one per thread), and once a proven lower bound reaches the
+  // next targets, those candidates cannot raise it and are not computed (the same result).
+  const size_t batch = static_cast<size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+  for (size_t first = 0; first < k; first += batch) {
+    const size_t last = std::min(k, first + batch);
+    tbb::parallel_for(first, last, [&](size_t i) {
+      const TriangleResult& r = results[order[i]];
+      const double target = r.m2s_est * 0.995;
+      if (target > report.mesh_to_surface.lower)
+        low[i] = detail::certified_distance_lower(model, r.m2s_point, target, options.lower_node_budget);
+    });
+    for (size_t i = first; i < last; ++i) {
+      if (low[i] > report.mesh_to_surface.lower) {
+        report.mesh_to_surface.lower = low[i];
+        report.mesh_to_surface.witness = results[order[i]].m2s_point;
+        report.mesh_to_surface.witness_patch = mesh.triangle_patch.empty() ? -1 : mesh.triangle_patch[order[i]];
+      }
     }
   }
   // Surface->mesh: exact surface points (evaluation error bounded below) against the whole mesh.
@@ -1318,6 +1328,9 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
   std::sort(order.begin(), order.begin() + static_cast<long>(sorted), larger);
   double largest = 0.0;
   size_t next = 0;
+  // Batches grow from 32 to 1024 triangles: the first ones (the largest bounds) set `largest`, so
+  // that the rest are mostly settled by their composed bound without a projection.
+  size_t batch = 32;
   while (next < count && cheap[order[next]] > largest) {
     if (next >= sorted) {
       budget::check("validation");
@@ -1325,7 +1338,8 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
       sorted = count;
     }
     size_t end = next;
-    while (end < sorted && end - next < 1024 && cheap[order[end]] > largest) ++end;
+    while (end < sorted && end - next < batch && cheap[order[end]] > largest) ++end;
+    batch = std::min<size_t>(2 * batch, 1024);
     tbb::parallel_for(tbb::blocked_range<size_t>(next, end, 16), [&](const tbb::blocked_range<size_t>& range) {
       Scratch s;
       budget::check("validation");
