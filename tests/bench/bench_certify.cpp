@@ -46,3 +46,27 @@ BENCHMARK(BM_CertifyTeacup)->Arg(7)->Arg(22)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_CertifyTeapot)->Arg(13)->Unit(benchmark::kMillisecond);
 
 }  // namespace
+
+namespace {
+
+// The tessellation the tea-set rows time: the full Tessellation (positions, normals, (u, v), patch
+// ids) of the uniform scheme at N segments, one thread.
+void BM_TessellateTeapotFull(benchmark::State& state) {
+  const std::string path = std::string(SAGITTA_SHARED_DATA) + "/teapot.bpt";
+  if (!std::filesystem::exists(path)) {
+    state.SkipWithError("shared data absent");
+    return;
+  }
+  const sagitta::Model model = sagitta::io::read_bpt(path);
+  const sagitta::Topology topo = sagitta::build_topology(model);
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 1);
+  sagitta::UniformParams params;
+  params.segments = static_cast<int>(state.range(0));
+  for (auto _ : state) {
+    const sagitta::Tessellation t = sagitta::tessellate_uniform(model, topo, params);
+    benchmark::DoNotOptimize(t.positions.data());
+  }
+}
+BENCHMARK(BM_TessellateTeapotFull)->Arg(13)->Unit(benchmark::kMicrosecond);
+
+}  // namespace

@@ -500,8 +500,9 @@ double hull_max(const Model& model, const Grid& g, const Vec2& lo, const Vec2& h
 
 // Branch and bound over slices [s0, s1] of [s_lo, s_hi]: bound(s0, s1) bounds a quantity over a
 // slice and seen(s0, s1) is a value it takes there. The largest bound is halved first until it is
-// at most `enough`, within 2 % of the largest value seen, or 48 slices are left: the largest bound
-// then bounds the quantity over [s_lo, s_hi]. +infinity when a bound is NaN.
+// at most `enough`, within 2 % of the largest value seen, 48 slices are left, or the last 8 halvings
+// lowered it by less than 1 % (a term the slices do not shrink holds it up): the largest bound then
+// bounds the quantity over [s_lo, s_hi]. +infinity when a bound is NaN.
 template <class Bound, class Seen>
 double slice_bound(double s_lo, double s_hi, double enough, Bound&& bound, Seen&& seen) {
   constexpr int kSlices = 48;
@@ -518,9 +519,13 @@ double slice_bound(double s_lo, double s_hi, double enough, Bound&& bound, Seen&
     return sl.bound == sl.bound;
   };
   if (!push(s_lo, s_hi)) return kInf;
+  constexpr int kStall = 8;
+  std::array<double, kStall> recent;  // the largest bound after the last kStall halvings, cyclic
   for (int slices = 1;; ++slices) {
     const Slice top = open.top();
     if (top.bound <= std::max(1.02 * largest_seen, enough) || slices >= kSlices) return top.bound;
+    if (slices > kStall && top.bound >= 0.99 * recent[static_cast<size_t>(slices % kStall)]) return top.bound;
+    recent[static_cast<size_t>(slices % kStall)] = top.bound;
     open.pop();
     const double mid = 0.5 * (top.s0 + top.s1);
     if (!push(top.s0, mid) || !push(mid, top.s1)) return kInf;
