@@ -61,12 +61,14 @@ void fill_boundary(const Model& model, const Topology& topology, const BoundaryL
     const int n = layout.edge_segments[e];
     const SideRef owner = edge.uses.front();
     const bool owner_reversed = edge.use_reversed.front();
+    const BezierPatch& patch = model.patches[owner.patch];
+    const double diagonal = normals && n > 1 ? control_box(patch).diagonal() : 0.0;
     for (int k = 1; k < n; ++k) {
       const double t = static_cast<double>(k) / n;
       const uint32_t id = layout.edge_base[e] + static_cast<uint32_t>(k - 1);
       out.positions[id] = de_casteljau_curve(edge.points, edge.weights, t);
       const Vec2 uv = side_uv(owner.side, owner_reversed ? 1.0 - t : t);
-      if (normals) out.normals[id] = detail::surface_normal(model.patches[owner.patch], uv.x, uv.y);
+      if (normals) out.normals[id] = detail::surface_normal(patch, uv.x, uv.y, diagonal);
       if (surface) out.surface_points[id] = {owner.patch, uv.x, uv.y};
     }
   });

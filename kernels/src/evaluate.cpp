@@ -132,7 +132,10 @@ SurfacePointEval evaluate_with_derivatives(const BezierPatch& patch, double u, d
 namespace detail {
 
 Vec3 surface_normal(const BezierPatch& patch, double u, double v) {
-  const double scale = control_box(patch).diagonal();
+  return surface_normal(patch, u, v, control_box(patch).diagonal());
+}
+
+Vec3 surface_normal(const BezierPatch& patch, double u, double v, double scale) {
   const double tiny = 1e-24 * scale * scale;
   // Step towards the patch centre until the tangent plane is defined; the first step is so small
   // that the result is the limit normal to within the step size.

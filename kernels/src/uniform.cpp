@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace sagitta {
 
@@ -263,7 +264,16 @@ void triangulate_cells(const PatchPass& pp, SlotWriter& w) {
   const double nud = static_cast<double>(nu), nvd = static_cast<double>(nv);
   const int* ratio = pp.plan.ratio;
   std::vector<Corner> polygon;
+  // The grid's parameters (the same divisions as a / nu, b / nv at each use) and one row of
+  // vertex ids at a time.
+  std::vector<double> us(static_cast<size_t>(nu) + 1), vs(static_cast<size_t>(nv) + 1);
+  for (int a = 0; a <= nu; ++a) us[static_cast<size_t>(a)] = a / nud;
+  for (int b = 0; b <= nv; ++b) vs[static_cast<size_t>(b)] = b / nvd;
+  std::vector<uint32_t> row0(static_cast<size_t>(nv) + 1), row1(row0.size());
+  for (int b = 0; b <= nv; ++b) row1[static_cast<size_t>(b)] = pp.vertex(0, b);
   for (int a = 0; a < nu; ++a) {
+    std::swap(row0, row1);
+    for (int b = 0; b <= nv; ++b) row1[static_cast<size_t>(b)] = pp.vertex(a + 1, b);
     for (int b = 0; b < nv; ++b) {
       const bool refined = (a == 0 && ratio[0] > 1) || (a == nu - 1 && ratio[1] > 1) || (b == 0 && ratio[2] > 1) ||
                            (b == nv - 1 && ratio[3] > 1);
@@ -272,37 +282,59 @@ void triangulate_cells(const PatchPass& pp, SlotWriter& w) {
         continue;
       }
       // two triangles, oriented like the (u, v) square
-      const Vec2 uv00(a / nud, b / nvd), uv10((a + 1) / nud, b / nvd), uv01(a / nud, (b + 1) / nvd),
-          uv11((a + 1) / nud, (b + 1) / nvd);
-      const uint32_t v00 = pp.vertex(a, b), v10 = pp.vertex(a + 1, b), v01 = pp.vertex(a, b + 1),
-                     v11 = pp.vertex(a + 1, b + 1);
+      const size_t i = static_cast<size_t>(a), j = static_cast<size_t>(b);
+      const Vec2 uv00(us[i], vs[j]), uv10(us[i + 1], vs[j]), uv01(us[i], vs[j + 1]), uv11(us[i + 1], vs[j + 1]);
+      const uint32_t v00 = row0[j], v10 = row1[j], v01 = row0[j + 1], v11 = row1[j + 1];
       w.emit(v00, v10, v11, uv00, uv10, uv11);
       w.emit(v00, v11, v01, uv00, uv11, uv01);
     }
   }
 }
 
-// Compact in patch order, so the output is independent of scheduling.
-void compact(const std::vector<PatchPlan>& plans, const std::vector<Triangle>& slots,
-             const std::vector<std::array<Vec2, 3>>& slot_uv, bool surface_data, Tessellation& out) {
-  const size_t np = plans.size();
-  out.triangles.reserve(slots.size());
-  if (surface_data) {
-    out.triangle_patch.reserve(slots.size());
-    out.triangle_uv.reserve(slots.size());
+// Drops the skipped slots of one patch's range [begin, end), keeping the order; returns how many
+// are kept (at the start of the range).
+size_t compact_patch(Triangle* slots, std::array<Vec2, 3>* slot_uv, size_t begin, size_t end) {
+  size_t kept = begin;
+  for (size_t s = begin; s < end; ++s) {
+    if (slots[s][0] == kSkip) continue;
+    if (kept != s) {
+      slots[kept] = slots[s];
+      if (slot_uv) slot_uv[kept] = slot_uv[s];
+    }
+    ++kept;
   }
-  size_t patch = 0;
-  for (size_t s = 0; s < slots.size(); ++s) {
-    while (patch + 1 < np && s >= plans[patch + 1].slot_base) ++patch;
-    if (slots[s][0] == kSkip) {
-      ++out.degenerate_triangles;
-      continue;
+  return kept - begin;
+}
+
+// Joins the patches' kept slots in patch order, so the output is independent of scheduling: the
+// slots become the triangles (and their (u, v)) in place.
+void compact(const std::vector<PatchPlan>& plans, const std::vector<size_t>& kept, std::vector<Triangle>&& slots,
+             std::vector<std::array<Vec2, 3>>&& slot_uv, bool surface_data, Tessellation& out) {
+  const size_t np = plans.size();
+  size_t total = 0;
+  for (size_t p = 0; p < np; ++p) total += kept[p];
+  out.degenerate_triangles += slots.size() - total;
+  if (surface_data) out.triangle_patch.resize(total);
+  size_t at = 0;
+  for (size_t p = 0; p < np; ++p) {
+    const size_t begin = plans[p].slot_base;
+    if (at != begin) {
+      std::copy(slots.begin() + static_cast<long>(begin), slots.begin() + static_cast<long>(begin + kept[p]),
+                slots.begin() + static_cast<long>(at));
+      if (surface_data)
+        std::copy(slot_uv.begin() + static_cast<long>(begin), slot_uv.begin() + static_cast<long>(begin + kept[p]),
+                  slot_uv.begin() + static_cast<long>(at));
     }
-    out.triangles.push_back(slots[s]);
-    if (surface_data) {
-      out.triangle_patch.push_back(static_cast<uint32_t>(patch));
-      out.triangle_uv.push_back(slot_uv[s]);
-    }
+    if (surface_data)
+      std::fill(out.triangle_patch.begin() + static_cast<long>(at),
+                out.triangle_patch.begin() + static_cast<long>(at + kept[p]), static_cast<uint32_t>(p));
+    at += kept[p];
+  }
+  slots.resize(total);
+  out.triangles = std::move(slots);
+  if (surface_data) {
+    slot_uv.resize(total);
+    out.triangle_uv = std::move(slot_uv);
   }
 }
 
@@ -343,6 +375,7 @@ Tessellation tessellate_uniform(const Model& model, const Topology& topology, co
 
   std::vector<Triangle> slots(plan.slots);
   std::vector<std::array<Vec2, 3>> slot_uv(params.surface_data ? plan.slots : 0);
+  std::vector<size_t> kept(np, 0);  // per patch: its slots that hold a triangle
   tbb::parallel_for(size_t{0}, np, [&](size_t p) {
     budget::check("the uniform tessellation");
     const PatchPlan& pplan = plan.patches[p];
@@ -350,9 +383,11 @@ Tessellation tessellate_uniform(const Model& model, const Topology& topology, co
     sample_interior(pp);
     SlotWriter w{&slots[pplan.slot_base], params.surface_data ? &slot_uv[pplan.slot_base] : nullptr};
     triangulate_cells(pp, w);
+    const size_t end = p + 1 < np ? plan.patches[p + 1].slot_base : plan.slots;
+    kept[p] = compact_patch(slots.data(), params.surface_data ? slot_uv.data() : nullptr, pplan.slot_base, end);
   });
 
-  compact(plan.patches, slots, slot_uv, params.surface_data, out);
+  compact(plan.patches, kept, std::move(slots), std::move(slot_uv), params.surface_data, out);
   return out;
 }
 

@@ -67,6 +67,6 @@ void BM_TessellateTeapotFull(benchmark::State& state) {
     benchmark::DoNotOptimize(t.positions.data());
   }
 }
-BENCHMARK(BM_TessellateTeapotFull)->Arg(13)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_TessellateTeapotFull)->Arg(13)->Arg(42)->Unit(benchmark::kMicrosecond);
 
 }  // namespace

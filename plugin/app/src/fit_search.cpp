@@ -1,18 +1,14 @@
 #include "sagitta/app/fit_search.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace sagitta::app {
 
 bool fit_fewest_triangles(const Model& model, const Topology& topo, double target, FittedSetting& best) {
-  bool found = false;
-  auto consider = [&](FittedSetting f) {
-    if (!f.fit.met) return;
-    if (!found || f.fit.triangles < best.fit.triangles) {
-      best = std::move(f);
-      found = true;
-    }
-  };
+  // Candidates in the order of their schemes' speed: the uniform grid, per-patch uniform, ESC.
+  std::vector<FittedSetting> met;
   for (int kind = 0; kind < 3; ++kind) {
     FittedSetting f;
     FitOptions options;
@@ -33,9 +29,20 @@ bool fit_fewest_triangles(const Model& model, const Topology& topo, double targe
       f.scheme = "uniform";
       f.spec.segments = f.fit.level;
     }
-    consider(std::move(f));
+    if (f.fit.met) met.push_back(std::move(f));
   }
-  return found;
+  if (met.empty()) return false;
+  size_t fewest = met.front().fit.triangles;
+  for (const FittedSetting& f : met) fewest = std::min(fewest, f.fit.triangles);
+  // The fastest scheme among those within 1 % of the fewest triangles (the teapot at 1e-3: uniform
+  // N = 42 with 112,560 triangles, ESC with 112,552).
+  for (FittedSetting& f : met) {
+    if (static_cast<double>(f.fit.triangles) <= 1.01 * static_cast<double>(fewest)) {
+      best = std::move(f);
+      return true;
+    }
+  }
+  return false;
 }
 
 bool fit_occt_deflection(const Model& model, double target, occt::PeerResult& best, double& deflection) {
