@@ -503,7 +503,7 @@ double hull_max(const Model& model, const Grid& g, const Vec2& lo, const Vec2& h
 // at most `enough`, within 2 % of the largest value seen, 48 slices are left, or the last 8 halvings
 // lowered it by less than 1 % (a term the slices do not shrink holds it up): the largest bound then
 // bounds the quantity over [s_lo, s_hi]. The caller has a bound `useless` already: the search also
-// stops once it cannot end below it (a value seen reaches it) or, after 4 halvings, is still above
+// stops once it cannot end below it (a value seen reaches it) or, after 8 halvings, is still above
 // twice it. +infinity when a bound is NaN.
 template <class Bound, class Seen>
 double slice_bound(double s_lo, double s_hi, double enough, double useless, Bound&& bound, Seen&& seen) {
@@ -526,7 +526,7 @@ double slice_bound(double s_lo, double s_hi, double enough, double useless, Boun
   for (int slices = 1;; ++slices) {
     const Slice top = open.top();
     if (top.bound <= std::max(1.02 * largest_seen, enough) || slices >= kSlices) return top.bound;
-    if (largest_seen >= useless || (slices > 4 && top.bound > 2.0 * useless)) return top.bound;
+    if (largest_seen >= useless || (slices > 8 && top.bound > 2.0 * useless)) return top.bound;
     if (slices > kStall && top.bound >= 0.99 * recent[static_cast<size_t>(slices % kStall)]) return top.bound;
     recent[static_cast<size_t>(slices % kStall)] = top.bound;
     open.pop();
