@@ -10,8 +10,9 @@
 #include <glm/common.hpp>
 
 #include <cmath>
-#include <limits>
+#include <cstdio>
 #include <iostream>
+#include <limits>
 #include <memory>
 
 namespace sagitta::cli {
@@ -77,6 +78,25 @@ void run_fit_part(const FitCliOptions& o, double target) {
   }
   std::cout << " (" << (fit.met ? "meets" : "MISSES") << " the target), " << fit.steps.size() << " steps, "
             << fit.seconds << " s\n";
+  const nlohmann::json over = doc["faces_over_ratio_limits_detail"];
+  if (!over.empty()) {
+    // The faces whose certified interval is wider than the fit aims for, worst first (the JSON has all).
+    std::cout << "  faces over the ratio limits (upper > " << app::kFitRatioTrimmed << " x lower trimmed, > "
+              << app::kFitRatioUntrimmed << " x untrimmed): " << over.size() << " of " << fit.run.part.faces.size()
+              << ":";
+    for (size_t k = 0; k < over.size() && k < 8; ++k) {
+      const nlohmann::json& r = over[k];
+      std::cout << (k ? ", " : " ") << r["face"].get<std::string>() << " (" << r["surface"].get<std::string>() << ", ";
+      if (r["ratio"].is_number()) {
+        char ratio[32];
+        std::snprintf(ratio, sizeof ratio, "%.3g", r["ratio"].get<double>());
+        std::cout << ratio << "x)";
+      } else {
+        std::cout << "no lower bound)";
+      }
+    }
+    std::cout << (over.size() > 8 ? ", ..." : "") << "\n";
+  }
   if (!o.json.empty()) std::cout << "  json: " << o.json << "\n";
   if (!o.out.empty() && fit.met) std::cout << "  mesh: " << o.out << "\n";
   if (!fit.met) throw InputError(o.input + ": the target " + std::to_string(target) + " was not met: " + fit.reason);

@@ -403,6 +403,31 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   return finish(n, {}, std::move(run));
 }
 
+nlohmann::json faces_over_ratio_limits_json(const PartRun& run) {
+  const double exact = exact_threshold(run);
+  std::vector<size_t> over;
+  for (size_t f = 0; f < run.certificate.faces.size(); ++f) {
+    if (over_limit(run, f, exact)) over.push_back(f);
+  }
+  const auto ratio = [&](size_t f) {
+    const FaceCertificate& c = run.certificate.faces[f];
+    return c.hausdorff.lower > 0.0 ? c.upper / c.hausdorff.lower : kInf;
+  };
+  std::stable_sort(over.begin(), over.end(), [&](size_t a, size_t b) { return ratio(a) > ratio(b); });
+  nlohmann::json list = nlohmann::json::array();
+  for (const size_t f : over) {
+    const occt::PartFace& face = run.part.faces[f];
+    const FaceCertificate& c = run.certificate.faces[f];
+    list.push_back({{"face", face.name},
+                    {"surface", face.surface_type},
+                    {"trimmed", face.trimmed},
+                    {"lower", c.hausdorff.lower},
+                    {"upper", c.upper},
+                    {"ratio", number_or_null(ratio(f))}});
+  }
+  return list;
+}
+
 nlohmann::json part_fit_summary(const PartFit& fit) {
   nlohmann::json j = part_fit_json(fit);
   j.erase("part");
@@ -428,6 +453,7 @@ nlohmann::json part_fit_json(const PartFit& fit) {
   j["certified_lower_bound"] = fit.run.certificate.distance.hausdorff.lower;
   j["certified_faces_error"] =
       number_or_null(fit.run.certificate.faces_certified > 0 ? fit.run.certificate.certified_faces_upper : kInf);
+  j["faces_over_ratio_limits_detail"] = faces_over_ratio_limits_json(fit.run);
   nlohmann::json steps = nlohmann::json::array();
   for (const PartFit::Step& s : fit.steps) {
     steps.push_back({{"segments", s.segments},

@@ -430,6 +430,22 @@ TEST(AppPart, FitTightensTheEdgesOfFacesOverTheRatioLimits) {
             (fewest.run.part.faces[f].trimmed ? app::kFitRatioTrimmed : app::kFitRatioUntrimmed) * c.hausdorff.lower;
   }
   EXPECT_GE(over, 1);
+  // The fit's JSON lists those faces by name, worst first, with their intervals.
+  const nlohmann::json listed = app::part_fit_json(fewest)["faces_over_ratio_limits_detail"];
+  ASSERT_EQ(listed.size(), static_cast<size_t>(app::faces_over_ratio_limits(fewest.run)));
+  ASSERT_GE(listed.size(), 1u);
+  double previous = std::numeric_limits<double>::infinity();
+  for (const nlohmann::json& row : listed) {
+    size_t f = 0;
+    while (f < fewest.run.part.faces.size() && fewest.run.part.faces[f].name != row["face"].get<std::string>()) ++f;
+    ASSERT_LT(f, fewest.run.part.faces.size()) << row.dump();
+    EXPECT_TRUE(app::face_over_ratio_limit(fewest.run, f)) << row.dump();
+    EXPECT_EQ(row["upper"].get<double>(), fewest.run.certificate.faces[f].upper);
+    const double ratio =
+        row["ratio"].is_number() ? row["ratio"].get<double>() : std::numeric_limits<double>::infinity();
+    EXPECT_LE(ratio, previous);
+    previous = ratio;
+  }
 }
 
 // Graded grids (docs/CAD.md): bug24595's four fillets are B-spline faces of 10 x 59 bicubic knot

@@ -207,8 +207,13 @@ int faces_over_ratio_limits(const PartRun& run);
 // instead), plus `faces` and `faces_over_ratio_limits`.
 nlohmann::json part_fit_summary(const PartFit& fit);
 
+// The faces over their ratio limit (face_over_ratio_limit), worst first: [{face, surface, trimmed,
+// lower, upper, ratio}] with the face named as FreeCAD numbers it.
+nlohmann::json faces_over_ratio_limits_json(const PartRun& run);
+
 // The fit as JSON: met, reason, target, segments, edge_tolerance, triangles, certified_error,
-// certified_lower_bound, certified_faces_error,
+// certified_lower_bound, certified_faces_error, faces_over_ratio_limits_detail
+// (faces_over_ratio_limits_json),
 // steps [{segments, triangles, certified, upper, certified_faces_upper, lower, seconds}], seconds, and the chosen
 // mesh's part_run_json under "part".
 nlohmann::json part_fit_json(const PartFit& fit);
