@@ -521,12 +521,13 @@ double slice_bound(double s_lo, double s_hi, double enough, double useless, Boun
     return sl.bound == sl.bound;
   };
   if (!push(s_lo, s_hi)) return kInf;
-  constexpr int kStall = 8;
-  std::array<double, kStall> recent;  // the largest bound after the last kStall halvings, cyclic
+  constexpr int kStall = 8;             // halvings that must lower the largest bound by 1 % together
+  constexpr int kGiveUp = 8;            // halvings after which a bound above twice `useless` is given up
+  std::array<double, kStall> recent{};  // the largest bound after the last kStall halvings, cyclic
   for (int slices = 1;; ++slices) {
     const Slice top = open.top();
     if (top.bound <= std::max(1.02 * largest_seen, enough) || slices >= kSlices) return top.bound;
-    if (largest_seen >= useless || (slices > 8 && top.bound > 2.0 * useless)) return top.bound;
+    if (largest_seen >= useless || (slices > kGiveUp && top.bound > 2.0 * useless)) return top.bound;
     if (slices > kStall && top.bound >= 0.99 * recent[static_cast<size_t>(slices % kStall)]) return top.bound;
     recent[static_cast<size_t>(slices % kStall)] = top.bound;
     open.pop();
