@@ -1,6 +1,6 @@
 // Certified validation of small meshes (the tea-set rows of `sagitta bench`, issue 17): the time of
 // certify_distance on the uniform meshes of the teaspoon, teacup and teapot at a few segments per
-// patch side, on one thread, beside the time of the tessellation it certifies.
+// patch side, on one thread (BM_TessellateTeapotFull in bench_uniform.cpp times such a tessellation).
 // Run: build/tests/bench/sagitta_bench --benchmark_filter=Certify
 #include "sagitta/certify.hpp"
 #include "sagitta/io/model_io.hpp"
@@ -44,29 +44,5 @@ void BM_CertifyTeapot(benchmark::State& s) { run_certify(s, "teapot.bpt"); }
 BENCHMARK(BM_CertifyTeaspoon)->Arg(4)->Arg(13)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_CertifyTeacup)->Arg(7)->Arg(22)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_CertifyTeapot)->Arg(13)->Unit(benchmark::kMillisecond);
-
-}  // namespace
-
-namespace {
-
-// The tessellation the tea-set rows time: the full Tessellation (positions, normals, (u, v), patch
-// ids) of the uniform scheme at N segments, one thread.
-void BM_TessellateTeapotFull(benchmark::State& state) {
-  const std::string path = std::string(SAGITTA_SHARED_DATA) + "/teapot.bpt";
-  if (!std::filesystem::exists(path)) {
-    state.SkipWithError("shared data absent");
-    return;
-  }
-  const sagitta::Model model = sagitta::io::read_bpt(path);
-  const sagitta::Topology topo = sagitta::build_topology(model);
-  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 1);
-  sagitta::UniformParams params;
-  params.segments = static_cast<int>(state.range(0));
-  for (auto _ : state) {
-    const sagitta::Tessellation t = sagitta::tessellate_uniform(model, topo, params);
-    benchmark::DoNotOptimize(t.positions.data());
-  }
-}
-BENCHMARK(BM_TessellateTeapotFull)->Arg(13)->Arg(42)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
