@@ -78,7 +78,7 @@ void run_fit_part(const FitCliOptions& o, double target) {
   }
   std::cout << " (" << (fit.met ? "meets" : "MISSES") << " the target), " << fit.steps.size() << " steps, "
             << fit.seconds << " s\n";
-  const nlohmann::json over = doc["faces_over_ratio_limits_detail"];
+  const nlohmann::json& over = doc["faces_over_ratio_limits_detail"];
   if (!over.empty()) {
     // The faces whose certified interval is wider than the fit aims for, worst first (the JSON has all).
     std::cout << "  faces over the ratio limits (upper > " << app::kFitRatioTrimmed << " x lower trimmed, > "
