@@ -350,6 +350,31 @@ TEST_P(TeaSet, EscThresholdsAgainstBruteForce) {
   }
 }
 
+// A deeper refinement budget never loosens a triangle's bound: the first pass (depth 4) gives the
+// same bounds either way, and the second, against a target raised to what the first saw, may stop
+// its leaves higher than the first did; each triangle keeps the smaller of the two (both proven).
+TEST_P(TeaSet, DeeperBudgetNeverLoosensATriangle) {
+  const std::string path = test::shared_data(std::string(GetParam()) + ".bpt");
+  SAGITTA_REQUIRE_DATA(path);
+  const Model model = io::read_bpt(path);
+  int looser = 0, tighter = 0;
+  for (int segments : {2, 3, 5, 9}) {
+    const Tessellation mesh = uniform(model, segments);
+    CertifyOptions shallow;
+    shallow.max_depth = 4;
+    const DistanceReport a = certify_distance(model, mesh, shallow), b = certify_distance(model, mesh);
+    ASSERT_EQ(a.triangle_upper.size(), b.triangle_upper.size());
+    for (size_t t = 0; t < a.triangle_upper.size(); ++t) {
+      looser += b.triangle_upper[t] > a.triangle_upper[t] ? 1 : 0;
+      tighter += b.triangle_upper[t] < a.triangle_upper[t] ? 1 : 0;
+    }
+    EXPECT_LE(b.hausdorff.upper, a.hausdorff.upper) << segments << " segments";
+  }
+  std::cout << "[" << GetParam() << "] depth 8 against depth 4: " << tighter << " triangles tighter, " << looser
+            << " looser\n";
+  EXPECT_EQ(looser, 0);
+}
+
 INSTANTIATE_TEST_SUITE_P(Models, TeaSet, ::testing::Values("teapot", "teacup", "teaspoon"));
 
 }  // namespace

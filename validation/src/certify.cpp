@@ -1799,10 +1799,27 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
       any = any || hole_results[i].exhausted;
     }
     if (any) {
+      // Both passes' bounds are proven over the whole triangle: each keeps the smaller (the second
+      // pass refines against a raised target, so it may stop above what the first reached).
+      const auto bounds = [](const std::vector<TriangleResult>& r) {
+        std::vector<std::pair<double, double>> out(r.size());
+        for (size_t k = 0; k < r.size(); ++k) out[k] = {r[k].m2s, r[k].s2m};
+        return out;
+      };
+      const auto keep_smaller = [](std::vector<TriangleResult>& r,
+                                   const std::vector<std::pair<double, double>>& first) {
+        for (size_t k = 0; k < r.size(); ++k) {
+          r[k].m2s = std::min(r[k].m2s, first[k].first);
+          r[k].s2m = std::min(r[k].s2m, first[k].second);
+        }
+      };
+      const auto first = bounds(results), first_holes = bounds(hole_results);
       rf.max_depth = options.max_depth;
       rf.tau = std::max(tau, options.target_ratio * seen);
       refine_triangles(rf, est, results, &redo);
       refine_holes(rf, holes, hole_cheap, hole_results, &redo_holes);
+      keep_smaller(results, first);
+      keep_smaller(hole_results, first_holes);
     }
   }
   const Uppers upper = collect_uppers(results, hole_results, report);
