@@ -483,9 +483,9 @@ double hull_max(const Model& model, const Grid& g, const Vec2& lo, const Vec2& h
           for (int c = 0; c < sub.cols(); ++c) {
             if (!(sub.weight(r, c) > 0.0)) out = std::numeric_limits<double>::quiet_NaN();
             const Vec3& q = sub.at(r, c);
-            // The control point's Greville point in the face's (U, V) (in the patch's own frame).
-            Vec2 st(at(r, sub.rows(), s0, s1), at(c, sub.cols(), t0, t1));
-            if (g.f.reversed) st.x = 1.0 - st.x;
+            // The control point's Greville point: in the patch's own (s, t) (s0, s1 are already in
+            // the patch's frame), mapped to the face's (U, V) by to_uv (which turns reversed patches).
+            const Vec2 st(at(r, sub.rows(), s0, s1), at(c, sub.cols(), t0, t1));
             const Vec2 uv = g.to_uv(static_cast<uint32_t>(i * g.nv + j), st);
             const double d =
                 distance(q, uv, spread) + rounding / sub.weight(r, c) + 64.0 * kUnit * (glm::length(q) + scale);
