@@ -915,6 +915,25 @@ struct ChordRectangle {
   }
 };
 
+// The s-range of the part of the triangle with corners p ((s, w)) inside the strip w0 <= w <= w1:
+// that part is a convex polygon whose corners are the triangle's corners inside the strip and its
+// edges' crossings of the strip's two lines. Widened by `pad` both ways against the crossings'
+// rounding; empty (first > second) when the triangle misses the strip.
+std::pair<double, double> strip_s_extent(const std::array<Vec2, 3>& p, double w0, double w1, double pad) {
+  double lo = kInf, hi = -kInf;
+  for (int i = 0; i < 3; ++i) {
+    const Vec2 &a = p[i], &b = p[(i + 1) % 3];
+    if (a.y >= w0 && a.y <= w1) lo = std::min(lo, a.x), hi = std::max(hi, a.x);
+    for (const double w : {w0, w1}) {
+      if ((a.y - w) * (b.y - w) < 0.0) {
+        const double s = a.x + (w - a.y) / (b.y - a.y) * (b.x - a.x);
+        lo = std::min(lo, s), hi = std::max(hi, s);
+      }
+    }
+  }
+  return {lo - pad, hi + pad};
+}
+
 // Face -> mesh lower bound from the points of the trimming curves (BoundaryChord::curve_points):
 // the largest distance from the face's boundary to its mesh sits there, between a chord and its curve,
 // where the triangles' own candidate points never reach.
@@ -1371,8 +1390,14 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
       const auto from_mesh = [&](size_t x, const std::array<Vec2, 3>& p, double width, std::pair<double, double> w) {
         double bound = base[x] + width * speed;
         if (x < triangles.size() && rect.frame.length > 0.0 && width * speed > std::max(0.02 * base[x], negligible)) {
-          const double s0 = std::max(-rect.overshoot, std::min({p[0].x, p[1].x, p[2].x}));
-          const double s1 = std::min(rect.frame.length + rect.overshoot, std::max({p[0].x, p[1].x, p[2].x}));
+          // Only x's part inside the strip w in [w.first, w.second] can lie over the sliver: a
+          // neighbour that meets it near a chord's end is bounded there, not along the whole chord.
+          const double reach =
+              rect.frame.length + rect.overshoot + std::max({std::abs(p[0].x), std::abs(p[1].x), std::abs(p[2].x)});
+          auto [lo, hi] = strip_s_extent(p, w.first, w.second, 1e-9 * reach);
+          if (!(lo <= hi)) lo = std::min({p[0].x, p[1].x, p[2].x}), hi = std::max({p[0].x, p[1].x, p[2].x});
+          const double s0 = std::max(-rect.overshoot, lo);
+          const double s1 = std::min(rect.frame.length + rect.overshoot, hi);
           const double across =
               across_to_curve(model, g, rect.frame, p, corners_3d(x), s0, s1, w.first, w.second, base[x], bound);
           bound = std::min(bound, std::max(base[x], across));

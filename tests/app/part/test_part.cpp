@@ -621,6 +621,29 @@ TEST(AppPart, AcrossChordBoundsOnReversedFacesUseThePatchFrame) {
   EXPECT_EQ(checked, 2);
 }
 
+// The mesh -> face term over a chord's sliver applies to every triangle meeting the chord's rectangle;
+// the slices across the chord (across_to_curve) run over the part of that triangle inside the
+// rectangle's strip. They used to run over the triangle's whole s-range, so for a neighbour that
+// only touches the strip near a chord's end the slices compared its affine map, extended along
+// the whole chord, with the curve and ended at the first-order term: on bug33398 at level 2 only 204
+// of its 228 trimmed faces with a non-zero bound were within 1.5x (now all 228).
+TEST(AppPart, NeighboursOfAChordAreBoundedWhereTheyMeetItsStrip) {
+  const std::string path = shared_data("cad/step/bug33398.step");
+  SAGITTA_REQUIRE_DATA(path);
+  const occt::PartMesh part = mesh_part(path, 2);
+  const app::PartCertificate cert = app::certify_part(part);
+  int trimmed = 0, within = 0;
+  for (const app::FaceCertificate& f : cert.faces) {
+    const occt::PartFace& face = part.faces[static_cast<size_t>(f.face)];
+    if (!face.trimmed || !f.certified || !(f.hausdorff.upper > 1e-9)) continue;
+    ++trimmed;
+    within += f.hausdorff.upper <= 1.5 * f.hausdorff.lower ? 1 : 0;
+  }
+  std::cout << "bug33398 level 2: " << within << " of " << trimmed << " trimmed faces within 1.5x\n";
+  EXPECT_GE(trimmed, 220);
+  EXPECT_GE(within, trimmed - 4);
+}
+
 // An open shell of untrimmed planes (FreeCAD fixture): every face covered, the part certified as a
 // whole, and its rim (the B-rep's free edges) is model boundary, not a crack.
 TEST(AppPart, UntrimmedOpenShellIsCertifiedWhole) {
