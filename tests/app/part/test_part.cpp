@@ -15,11 +15,24 @@
 #include <cmath>
 #include <iostream>
 #include <limits>
+#include <string>
+#include <vector>
 
 namespace sagitta {
 namespace {
 
 using test::shared_data;
+
+// The faces of `part` with the given names (as FreeCAD numbers them) and their certificates, in face order.
+std::vector<std::pair<const occt::PartFace*, const app::FaceCertificate*>> named_faces(
+    const occt::PartMesh& part, const app::PartCertificate& cert, const std::vector<std::string>& names) {
+  std::vector<std::pair<const occt::PartFace*, const app::FaceCertificate*>> out;
+  for (const app::FaceCertificate& f : cert.faces) {
+    const occt::PartFace& face = part.faces[static_cast<size_t>(f.face)];
+    if (std::find(names.begin(), names.end(), face.name) != names.end()) out.push_back({&face, &f});
+  }
+  return out;
+}
 
 occt::PartMesh mesh_part(const std::string& path, int level) {
   SchemeSpec spec;
@@ -584,18 +597,14 @@ TEST(AppPart, SliverSlicesTightenTrimmedSpheres) {
   SAGITTA_REQUIRE_DATA(path);
   const occt::PartMesh part = mesh_part(path, 2);
   const app::PartCertificate cert = app::certify_part(part);
-  int spheres = 0;
-  for (const app::FaceCertificate& f : cert.faces) {
-    const occt::PartFace& face = part.faces[static_cast<size_t>(f.face)];
-    if (face.name != "Face 303" && face.name != "Face 308" && face.name != "Face 328" && face.name != "Face 334")
-      continue;
-    ASSERT_EQ(face.surface_type, "Sphere");
-    ASSERT_TRUE(face.trimmed) << face.name;
-    ++spheres;
-    ASSERT_TRUE(f.certified) << face.name;
-    EXPECT_LE(f.hausdorff.upper, 1.1 * f.hausdorff.lower) << face.name << " sliver " << f.sliver;
+  const auto spheres = named_faces(part, cert, {"Face 303", "Face 308", "Face 328", "Face 334"});
+  ASSERT_EQ(spheres.size(), 4u);
+  for (const auto& [face, f] : spheres) {
+    ASSERT_EQ(face->surface_type, "Sphere");
+    ASSERT_TRUE(face->trimmed) << face->name;
+    ASSERT_TRUE(f->certified) << face->name;
+    EXPECT_LE(f->hausdorff.upper, 1.1 * f->hausdorff.lower) << face->name << " sliver " << f->sliver;
   }
-  EXPECT_EQ(spheres, 4);
 }
 
 // The slices' mesh -> face bound across a chord (part_certify.cpp, across_to_curve) compares each
@@ -608,17 +617,14 @@ TEST(AppPart, AcrossChordBoundsOnReversedFacesUseThePatchFrame) {
   SAGITTA_REQUIRE_DATA(path);
   const occt::PartMesh part = mesh_part(path, 1);
   const app::PartCertificate cert = app::certify_part(part);
-  int checked = 0;
-  for (const app::FaceCertificate& f : cert.faces) {
-    const occt::PartFace& face = part.faces[static_cast<size_t>(f.face)];
-    if (face.name != "Face 102" && face.name != "Face 232") continue;
-    ASSERT_TRUE(face.reversed && face.trimmed && face.surface_type == "Cylinder") << face.name;
-    ASSERT_EQ(f.route, "loops") << face.name;
-    ASSERT_TRUE(f.certified) << face.name << ": " << f.reason;
-    ++checked;
-    EXPECT_LE(f.hausdorff.upper, 1.05 * f.hausdorff.lower) << face.name << " sliver " << f.sliver;
+  const auto cylinders = named_faces(part, cert, {"Face 102", "Face 232"});
+  ASSERT_EQ(cylinders.size(), 2u);
+  for (const auto& [face, f] : cylinders) {
+    ASSERT_TRUE(face->reversed && face->trimmed && face->surface_type == "Cylinder") << face->name;
+    ASSERT_EQ(f->route, "loops") << face->name;
+    ASSERT_TRUE(f->certified) << face->name << ": " << f->reason;
+    EXPECT_LE(f->hausdorff.upper, 1.05 * f->hausdorff.lower) << face->name << " sliver " << f->sliver;
   }
-  EXPECT_EQ(checked, 2);
 }
 
 // The mesh -> face term over a chord's sliver applies to every triangle meeting the chord's rectangle;
