@@ -202,7 +202,7 @@ def part_parameters(params):
         raise SagittaError("pn is a scheme for triangle meshes; tessellate a part with uniform or esc")
     return {k: v for k, v in params.items()
             if k in ("scheme", "level", "segments", "threshold", "edge_tolerance", "face_segments",
-                     "face_edge_tolerance")}
+                     "face_edge_tolerance", "face_graded_segments")}
 
 
 def mesh_part(links, name, params):
@@ -451,6 +451,9 @@ class TessellationFeature:
         add("App::PropertyFloatList", "FaceEdgeTolerances", "Sagitta",
             "Whole parts: a tighter edge tolerance for the edges of each face (Face 1 first) where > 0. Set by "
             "Fit on faces whose certified interval the slivers at their trimming curves widened; empty: none")
+        add("App::PropertyFloatList", "FaceGradedSegments", "Sagitta",
+            "Whole parts, uniform: a real N for the graded grid of each face (Face 1 first) where > 0, at most its "
+            "FaceSegments. Set by Fit (a graded face's cells follow N continuously); empty: the integer N")
         if "Scheme" not in existing:
             obj.Scheme = SCHEMES
         for kind, name, doc in STAT_PROPERTIES:
@@ -602,7 +605,7 @@ def apply_with_progress(obj, values, edit=True):
 
 # The parameters a user edits; the fit sets them too.
 PARAMETERS = ("Scheme", "Level", "Segments", "BaseLevel", "Threshold", "EdgeTolerance", "FaceSegments",
-              "FaceEdgeTolerances")
+              "FaceEdgeTolerances", "FaceGradedSegments")
 NOT_VALIDATED = "not validated"
 
 
@@ -640,6 +643,11 @@ def scheme_parameters(obj):
         if not all(t >= 0.0 and math.isfinite(t) for t in face_edge_tolerance):
             raise SagittaError("FaceEdgeTolerances must be finite numbers >= 0, got %r" % (face_edge_tolerance,))
         params["face_edge_tolerance"] = face_edge_tolerance
+    face_graded = list(getattr(obj, "FaceGradedSegments", []))
+    if obj.Scheme == "uniform" and face_graded:  # whole parts only, as face_segments
+        if not all(n >= 0.0 and math.isfinite(n) for n in face_graded):
+            raise SagittaError("FaceGradedSegments must be finite numbers >= 0, got %r" % (face_graded,))
+        params["face_graded_segments"] = face_graded
     return params
 
 
@@ -647,7 +655,8 @@ def tessellate_model(model, params):
     """Runs a scheme; invalid parameters become SagittaError with the library's message."""
     try:
         return _sagitta.tessellate(model, **{k: v for k, v in params.items()
-                                             if k not in ("edge_tolerance", "face_segments", "face_edge_tolerance")})
+                                             if k not in ("edge_tolerance", "face_segments", "face_edge_tolerance",
+                                                          "face_graded_segments")})
     except (ValueError, MemoryError) as error:
         raise library_error(error)
 
@@ -1220,8 +1229,8 @@ def check_target_error(target_error):
 def fit_part_tessellation(obj, target_error):
     """A whole part's fit (`sagitta fit PART`, docs/FITTING.md): uniform segments per patch side on
     each face and an edge tolerance, the fewest triangles whose certified error (every face) is <=
-    target. Sets Scheme uniform, Segments (the largest face's), FaceSegments, EdgeTolerance,
-    FaceEdgeTolerances and TargetError in one transaction; the recompute's mesh is the one the fit certified (the mesher is
+    target. Sets Scheme uniform, Segments (the largest face's), FaceSegments, FaceGradedSegments,
+    EdgeTolerance, FaceEdgeTolerances and TargetError in one transaction; the recompute's mesh is the one the fit certified (the mesher is
     deterministic). SagittaError, nothing changed, when not met."""
     text, label = part_brep_text(obj.Source), obj.Label
     depth = preferences()["max_depth"]
@@ -1237,7 +1246,8 @@ def fit_part_tessellation(obj, target_error):
         raise SagittaError("%s: the whole part did not meet the target %g: %s" % (label, target_error, result["reason"]))
     edit_tessellation(obj, Scheme="uniform", Segments=result["segments"], EdgeTolerance=result["edge_tolerance"],
                       FaceSegments=result.get("face_segments", []),
-                      FaceEdgeTolerances=result.get("face_edge_tolerance", []), TargetError=target_error)
+                      FaceEdgeTolerances=result.get("face_edge_tolerance", []),
+                      FaceGradedSegments=result.get("face_graded_segments", []), TargetError=target_error)
     result["scheme"] = "uniform"
     return result
 

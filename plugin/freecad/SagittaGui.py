@@ -245,6 +245,7 @@ class TessellatePanel:
         if any(getattr(self.obj, key) != value for key, value in values.items()):
             values["FaceSegments"] = []  # the fit's per-face densities give way to the panel's edit
             values["FaceEdgeTolerances"] = []
+            values["FaceGradedSegments"] = []
         try:  # the meshing in a worker thread with a progress dialog and Cancel, then the recompute
             SagittaCore.apply_with_progress(self.obj, values, edit=not self.creating)
         except Exception as error:

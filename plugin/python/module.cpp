@@ -604,19 +604,23 @@ void bind_part(py::module_& m) {
       "mesh_part_brep",
       [](const std::string& text, const std::string& name, const std::string& scheme, int level,
          std::optional<int> segments, std::optional<double> threshold, double edge_tolerance,
-         const std::vector<int>& face_segments, const std::vector<double>& face_edge_tolerance) {
+         const std::vector<int>& face_segments, const std::vector<double>& face_edge_tolerance,
+         const std::vector<double>& face_graded_segments) {
         occt::PartOptions options = part_options(scheme, level, segments, threshold, edge_tolerance);
         options.face_segments = face_segments;
         options.face_edge_tolerance = face_edge_tolerance;
+        options.face_graded_segments = face_graded_segments;
         py::gil_scoped_release release;
         return occt::mesh_part_brep_string(text, name, options);
       },
       py::arg("brep_text"), py::arg("name"), py::arg("scheme") = "uniform", py::arg("level") = 2,
       py::arg("segments") = py::none(), py::arg("threshold") = py::none(), py::arg("edge_tolerance") = 0.0,
       py::arg("face_segments") = std::vector<int>{}, py::arg("face_edge_tolerance") = std::vector<double>{},
+      py::arg("face_graded_segments") = std::vector<double>{},
       "mesh_part on a shape's BREP text (FreeCAD: shape.exportBrepToString()); `name` names it in messages; "
       "face_segments (uniform): segments per patch side of each face by face index, overriding `segments` "
-      "where > 0; face_edge_tolerance: a tighter edge tolerance for each face's edges where > 0 (both "
+      "where > 0; face_edge_tolerance: a tighter edge tolerance for each face's edges where > 0; "
+      "face_graded_segments (uniform): a real N for each face's graded grid where > 0 (all three "
       "fit_part_brep's choice)");
   m.def(
       "mesh_on_part_brep",
@@ -648,7 +652,8 @@ void bind_part(py::module_& m) {
       },
       py::arg("brep_text"), py::arg("name"), py::arg("target_error"), py::arg("max_depth") = 8,
       "Fit a whole part (BREP text) to a certified target error, as `sagitta fit PART --json` (uniform segments "
-      "and an edge tolerance; met, reason, segments, face_segments, edge_tolerance, face_edge_tolerance, triangles, "
+      "and an edge tolerance; met, reason, segments, face_segments, face_graded_segments, edge_tolerance, "
+      "face_edge_tolerance, triangles, "
       "certified_error, steps)");
   m.def(
       "certify_part",

@@ -956,10 +956,12 @@ class HeadlessTest(unittest.TestCase):
         self.assertLessEqual(result["certified_error"], target)
         self.assertEqual(list(obj.FaceEdgeTolerances), result["face_edge_tolerance"])
         self.assertGreater(sum(1 for t in obj.FaceEdgeTolerances if t > 0), 0)
+        self.assertEqual(list(obj.FaceGradedSegments), result.get("face_graded_segments", []))
         self.assertEqual(obj.Mesh.CountFacets, result["triangles"])
         doc.undo()
         doc.recompute()
         self.assertEqual(list(obj.FaceEdgeTolerances), [])
+        self.assertEqual(list(obj.FaceGradedSegments), [])
         FreeCAD.closeDocument(doc.Name)
 
     def test_fit_refuses_a_target_that_is_not_a_positive_number(self):

@@ -53,7 +53,8 @@ nlohmann::json part_json(const occt::PartMesh& part) {
                      {"triangles", f.triangles},
                      {"scheme_triangles", f.scheme_triangles},
                      {"max_boundary_offset", f.max_boundary_offset}});
-    if (f.graded_u > 0) faces.back()["graded_grid"] = {f.graded_u, f.graded_v};
+    if (f.graded_u > 0)
+      faces.back()["graded_grid"] = {f.graded_u, f.graded_v}, faces.back()["graded_segments"] = f.graded_segments;
   }
   for (const occt::PartSolid& s : part.solids) {
     solids.push_back({{"solid", s.index},

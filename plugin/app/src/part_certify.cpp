@@ -1568,7 +1568,7 @@ nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCerti
     }
     row["triangles"] = pf.triangles;
     if (pf.segments > 0) row["segments"] = pf.segments, row["grid"] = {pf.segments_u, pf.segments_v};
-    if (pf.graded_u > 0) row["graded_grid"] = {pf.graded_u, pf.graded_v};
+    if (pf.graded_u > 0) row["graded_grid"] = {pf.graded_u, pf.graded_v}, row["graded_segments"] = pf.graded_segments;
     row["seconds"] = f.seconds;
     if (!f.certified) row["reason"] = f.reason;
     faces.push_back(std::move(row));

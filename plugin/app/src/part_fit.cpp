@@ -93,7 +93,8 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   // certified at some N (a (U, V) triangle degenerate at a coarse N, a p-curve with no exact Bézier
   // form at any N) does not stop it, but the fit is met only when every face is certified.
   const auto attempt = [&](int segments, const std::vector<int>& face_segments, PartRun& run,
-                           double edge_tolerance = 0.0, const std::vector<double>& face_edge_tolerance = {}) {
+                           double edge_tolerance = 0.0, const std::vector<double>& face_edge_tolerance = {},
+                           const std::vector<double>& face_graded = {}) {
     const Stopwatch step;
     if (progress) progress(static_cast<int>(fit.steps.size()) + 1, segments);
     SchemeSpec scheme;
@@ -103,6 +104,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     occt::PartOptions options = part_options(scheme, edge_tolerance);
     options.face_segments = face_segments;
     options.face_edge_tolerance = face_edge_tolerance;
+    options.face_graded_segments = face_graded;
     run.part = mesher(options);
     run.validation = validate_part(run.part, check_options);
     run.certificate = certify_part(run.part, certify);
@@ -215,18 +217,20 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   const bool uniform_met = all_meet(run);
   PartRun best;
   std::vector<int> best_segments;
-  std::vector<double> best_tolerance;
+  std::vector<double> best_tolerance, best_graded;
   int best_n = n;
   const std::vector<std::vector<int>> neighbours = face_neighbours(run.part);
   if (uniform_met) best = std::move(run), best_tolerance = tolerance;
   const auto keep_if_better = [&](PartRun& trial, const std::vector<int>& segments,
-                                  const std::vector<double>& tolerances) {
-    if (!all_meet(trial)) return;
-    if (!best.part.faces.empty() && best.part.mesh.triangles.size() <= trial.part.mesh.triangles.size()) return;
+                                  const std::vector<double>& tolerances, const std::vector<double>& graded = {}) {
+    if (!all_meet(trial)) return false;
+    if (!best.part.faces.empty() && best.part.mesh.triangles.size() <= trial.part.mesh.triangles.size()) return false;
     best = std::move(trial);
     best_segments = segments;
     best_tolerance = tolerances;
+    best_graded = graded;
     if (!segments.empty()) best_n = *std::max_element(segments.begin(), segments.end());
+    return true;
   };
   // 2. Each face its own density. Every face's N is bisected between its lo and hi, all faces at
   //    once, one whole-part run per round; only runs in which every face meets are kept. Faces share
@@ -302,16 +306,51 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     if (!bisecting && !tightening && segments == trial) break;  // nothing left to change (faces at the cap)
   }
   if (!best.part.faces.empty()) {
+    // 2b. Graded faces between two integer N: a graded grid's cells follow its N continuously
+    //     (occt::PartOptions::face_graded_segments), so a face that misses at N - 1 and meets at N
+    //     with room to spare (bug24595's fillets: 0.107 at N = 2 against E = 0.150) is bisected
+    //     over real N in (N - 1, N] (in (N / 2, N] when N - 1 was never tried), all such faces at
+    //     once, three rounds; the whole-part runs in which every face meets are kept as in step 2.
+    {
+      const size_t faces = best.part.faces.size();
+      std::vector<int> grid = best_segments;
+      if (grid.empty()) grid.assign(faces, best_n);
+      std::vector<double> lo_real(faces, 0.0), hi_real(faces, 0.0);
+      bool any = false;
+      for (size_t f = 0; f < faces; ++f) {
+        if (best.part.faces[f].graded_u <= 0 || grid[f] < 1) continue;
+        hi_real[f] = grid[f];
+        lo_real[f] = f < lo.size() && lo[f] >= 1 && lo[f] < grid[f] ? lo[f] : 0.5 * grid[f];
+        any = true;
+      }
+      std::vector<double> tried;
+      for (int round = 0; any && round < 4; ++round) {
+        // Rounds 0-2 bisect; round 3 runs every face at its smallest real N known to meet.
+        std::vector<double> trial(faces, 0.0);
+        for (size_t f = 0; f < faces; ++f) {
+          if (hi_real[f] > 0.0) trial[f] = round < 3 ? 0.5 * (lo_real[f] + hi_real[f]) : hi_real[f];
+        }
+        if (trial == tried || trial == best_graded) break;
+        tried = trial;
+        PartRun graded;
+        attempt(best_n, grid, graded, 0.0, best_tolerance, trial);
+        for (size_t f = 0; f < faces && round < 3; ++f) {
+          if (hi_real[f] > 0.0) (face_meets(graded, f) ? hi_real[f] : lo_real[f]) = trial[f];
+        }
+        keep_if_better(graded, grid, best_tolerance, trial);
+      }
+    }
     // 3. Coarser edges: the edge chord tolerance E / 2 is conservative (its chords are checked at
     //    quarter points, the certificate measures the rest); with up to 2E the same face densities may
     //    still meet the target with fewer edge samples. The coarsest tolerance that meets is kept.
     for (double factor : {2.0, 1.4, 1.0, 0.75}) {
       PartRun coarser;
       const std::vector<int> face_segments = best_segments;
-      attempt(best_n, face_segments, coarser, factor * target, best_tolerance);
+      const std::vector<double> graded = best_graded;
+      attempt(best_n, face_segments, coarser, factor * target, best_tolerance, graded);
       if (!all_meet(coarser)) continue;
       const bool fewer = coarser.part.mesh.triangles.size() < best.part.mesh.triangles.size();
-      keep_if_better(coarser, face_segments, best_tolerance);
+      keep_if_better(coarser, face_segments, best_tolerance, graded);
       if (fewer) fit.edge_tolerance = factor * target;
       break;
     }
@@ -327,8 +366,10 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     std::vector<double> face_tolerance = best_tolerance, current_tolerance = best_tolerance;
     std::vector<int> face_grid = best_segments, current_grid = best_segments;
     if (current_grid.empty()) current_grid.assign(best.certificate.faces.size(), best_n);
+    std::vector<double> face_graded = best_graded, current_graded = best_graded;
+    current_graded.resize(best.certificate.faces.size(), 0.0);
     PartRun current = best;
-    std::vector<double> trial_tolerance;
+    std::vector<double> trial_tolerance, trial_graded;
     std::vector<int> trial_grid;
     bool pending = false;  // a trial with some faces' changes undone, to run as it is
     for (int round = 0; tighten && round < 6 && faces_over_ratio_limits(best) > 0; ++round) {
@@ -336,6 +377,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
         trial_tolerance = current_tolerance;
         trial_tolerance.resize(current.certificate.faces.size(), 0.0);
         trial_grid = current_grid;
+        trial_graded = current_graded;
         bool changed = false;
         for (size_t f = 0; f < current.certificate.faces.size(); ++f) {
           if (!over_limit(current, f, exact)) continue;
@@ -346,6 +388,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
             trial_tolerance[f] = now * std::clamp(sliver_goal / c.sliver, 0.1, 0.9);
           } else {  // the triangles' own bound is too wide: not the slivers
             trial_grid[f] = std::min(trial_grid[f] + std::max(1, trial_grid[f] / 2), kMaxFitSegments);
+            trial_graded[f] = 0.0;  // the raised integer N
           }
           changed = true;
         }
@@ -354,15 +397,18 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
       pending = false;
       PartRun tighter;
       attempt(*std::max_element(trial_grid.begin(), trial_grid.end()), trial_grid, tighter, fit.edge_tolerance,
-              trial_tolerance);
+              trial_tolerance, trial_graded);
       if (!all_meet(tighter)) {
         // The faces that now miss the target go back to their last values (or, where a face missed
         // unchanged, its changed neighbours: their edges are its edges), and the rest is tried again.
         current_tolerance.resize(trial_tolerance.size(), 0.0);
         const auto revert = [&](size_t f) {
-          if (trial_tolerance[f] == current_tolerance[f] && trial_grid[f] == current_grid[f]) return false;
+          if (trial_tolerance[f] == current_tolerance[f] && trial_grid[f] == current_grid[f] &&
+              trial_graded[f] == current_graded[f])
+            return false;
           trial_tolerance[f] = current_tolerance[f];
           trial_grid[f] = current_grid[f];
+          trial_graded[f] = current_graded[f];
           return true;
         };
         for (size_t f = 0; f < trial_grid.size(); ++f) {
@@ -379,10 +425,12 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
       current = std::move(tighter);
       current_tolerance = trial_tolerance;
       current_grid = trial_grid;
+      current_graded = trial_graded;
       if (faces_over_ratio_limits(current) < faces_over_ratio_limits(best)) {
         best = current;
         face_tolerance = current_tolerance;
         face_grid = current_grid;
+        face_graded = current_graded;
       }
     }
     if (face_grid != best_segments && !face_grid.empty()) {
@@ -391,6 +439,8 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     }
     if (std::any_of(face_tolerance.begin(), face_tolerance.end(), [](double t) { return t > 0.0; }))
       fit.face_edge_tolerance = face_tolerance;
+    if (std::any_of(face_graded.begin(), face_graded.end(), [](double t) { return t > 0.0; }))
+      fit.face_graded_segments = face_graded;
     return finish(best_n, best_segments, std::move(best));
   }
   // No per-face run met every face and the uniform run did not either: the uniform doubling goes on.
@@ -445,6 +495,7 @@ nlohmann::json part_fit_json(const PartFit& fit) {
   j["scheme"] = "uniform";
   j["segments"] = fit.segments;
   if (!fit.face_segments.empty()) j["face_segments"] = fit.face_segments;
+  if (!fit.face_graded_segments.empty()) j["face_graded_segments"] = fit.face_graded_segments;
   j["edge_tolerance"] = fit.edge_tolerance;
   if (!fit.face_edge_tolerance.empty()) j["face_edge_tolerance"] = fit.face_edge_tolerance;
   j["triangles"] = fit.run.part.mesh.triangles.size();

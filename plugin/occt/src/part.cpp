@@ -144,6 +144,7 @@ struct FaceGeometry {
   std::map<std::pair<double, double>, uint32_t> scheme_sides;
   int solid = -1;
   int segments = 1;  // the scheme's segments per patch side on this face (ESC: 1, the edge density's unit)
+  double graded_segments = 0.0;  // > 0: the graded grid's real N (PartOptions::face_graded_segments)
   // The uniform scheme's grid on every patch of the face: segments_u x segments_v (face_grid: the
   // larger equal to `segments`, 1 x 1 when flat; 1 x 1 for ESC: the edge density's unit).
   int segments_u = 1, segments_v = 1;
@@ -434,7 +435,7 @@ bool span_meets(double a, double b, double lo, double hi, double period) {
   return false;
 }
 
-SpanNeeds span_needs(const FaceGeometry& g, int segments) {
+SpanNeeds span_needs(const FaceGeometry& g, double segments) {
   const int nu = g.nu, nv = g.nv;
   std::vector<PatchBend> bends;
   for (const BezierPatch& patch : g.patches) bends.push_back(patch_bend(patch));
@@ -509,38 +510,37 @@ SpanNeeds span_needs(const FaceGeometry& g, int segments) {
   return need;
 }
 
-// Grid lines over `breaks` (first and last included): a span that needs n >= 1 cells gets
-// ceil(n) equal ones between its knots; consecutive spans that need less share cells, each cell as
-// long as (its length) x (the largest density n / span length it covers) stays <= 1; a kink's knot
-// is always a line.
+// Grid lines over `breaks` (first and last included) that spread the spans' needs evenly: the
+// density over span k is need[k] / width (cells per unit, constant inside the span); between two
+// kinks (and the ends) the lines cut the run into ceil(sum of needs) cells of equal load (the
+// integral of the density), each at most 1, so a span that needs 1.3 cells and its neighbour that
+// needs 1.4 share 3 cells instead of 2 + 2, and spans that need little share cells. A kink's knot
+// is always a line. Lines may fall inside spans: the certificate cuts triangles along the patch grid.
 std::vector<double> graded_lines(const std::vector<double>& breaks, const std::vector<double>& need,
                                  const std::vector<bool>& kink) {
+  std::vector<double> load_of(need.size(), 0.0);  // a span's need (0 where it has no width)
+  for (size_t k = 0; k < need.size(); ++k) load_of[k] = breaks[k + 1] > breaks[k] ? std::max(need[k], 0.0) : 0.0;
   std::vector<double> lines = {breaks.front()};
-  double density = 0.0;  // the open cell's (from lines.back() on) largest density, cells per unit
+  size_t first = 0;  // the run's first span
   for (size_t k = 0; k < need.size(); ++k) {
-    const double a = breaks[k], b = breaks[k + 1], width = b - a;
-    if (!(width > 0.0)) continue;
-    if (kink[k] && lines.back() < a) lines.push_back(a), density = 0.0;
-    if (need[k] >= 1.0 - 1e-9) {
-      if (lines.back() < a) lines.push_back(a);
-      const int n = static_cast<int>(std::ceil(need[k] - 1e-9));
-      for (int c = 1; c < n; ++c) lines.push_back(a + width * c / n);
-      lines.push_back(b);
-      density = 0.0;
-      continue;
+    if (k + 1 < need.size() && !kink[k + 1]) continue;
+    // Spans first..k form a run between kinks (or the ends).
+    double total = 0.0;
+    for (size_t j = first; j <= k; ++j) total += load_of[j];
+    const int cells = std::max(1, static_cast<int>(std::ceil(total - 1e-9)));
+    const double load = total / cells;  // each cell's share, <= 1
+    size_t j = first;
+    double before = 0.0;  // the load of spans first..j-1
+    for (int c = 1; c < cells; ++c) {
+      const double goal = load * c;
+      while (j < k && before + load_of[j] < goal) before += load_of[j], ++j;
+      const double a = breaks[j], b = breaks[j + 1];
+      const double fraction = load_of[j] > 0.0 ? std::clamp((goal - before) / load_of[j], 0.0, 1.0) : 1.0;
+      lines.push_back(a + (b - a) * fraction);
     }
-    const double d = std::max(density, need[k] / width);
-    if ((b - lines.back()) * d <= 1.0) {  // the open cell takes the whole span
-      density = d;
-      continue;
-    }
-    // The open cell ends as far into this span as d allows (at its start if not at all), then
-    // cells of this span's own density; the last one stays open.
-    lines.push_back(std::max(a, lines.back() + 1.0 / d));
-    density = need[k] / width;
-    while ((b - lines.back()) * density > 1.0) lines.push_back(lines.back() + 1.0 / density);
+    lines.push_back(breaks[k + 1]);
+    first = k + 1;
   }
-  if (lines.back() < breaks.back()) lines.push_back(breaks.back());
   // A cell thinner than 1e-9 of the range (rounding at a span's end) joins its neighbour.
   const double tiny = 1e-9 * (breaks.back() - breaks.front());
   std::vector<double> kept = {lines.front()};
@@ -592,7 +592,7 @@ void tessellate_graded(FaceGeometry& g, std::vector<double> lines_u, std::vector
 // nu x nv; false (nothing changed) otherwise. A smaller saving is not worth what the face gives up:
 // an untrimmed face on the per-patch grid keeps the scheme's triangles whole (certified on its own
 // patches), a graded one is triangulated from its loops like a trimmed face.
-bool try_graded_grid(FaceGeometry& g, int segments, int nu, int nv) {
+bool try_graded_grid(FaceGeometry& g, double segments, int nu, int nv) {
   if (g.nu * g.nv <= 1) return false;
   const SpanNeeds need = span_needs(g, segments);
   std::vector<double> lines_u = graded_lines(g.report.u_breaks, need.u, need.kink_u);
@@ -622,7 +622,8 @@ void tessellate_face_patches(FaceGeometry& g, const SchemeSpec& scheme, bool gra
   if (spec.scheme == Scheme::kUniform && spec.patch_levels.empty()) {
     const FaceBend bend = face_bend(g.patches);
     const auto [nu, nv] = face_grid(g.segments, bend);
-    if (graded && !bend.flat && try_graded_grid(g, g.segments, nu, nv)) {
+    const double real_n = g.graded_segments > 0.0 ? std::min(g.graded_segments, double(g.segments)) : g.segments;
+    if (graded && !bend.flat && try_graded_grid(g, real_n, nu, nv)) {
       g.segments_u = nu, g.segments_v = nv;
       return;
     }
@@ -1619,6 +1620,10 @@ void check_scheme(const PartOptions& options, const std::string& name) {
   for (int n : options.face_segments) {
     if (n < 0 || n > 4096) throw InputError(name + ": segments per face must be in 0..4096, got " + std::to_string(n));
   }
+  for (double n : options.face_graded_segments) {
+    if (!(n >= 0.0) || !(n <= 4096.0))
+      throw InputError(name + ": a face's graded segments must be in 0..4096, got " + std::to_string(n));
+  }
   for (double tol : options.face_edge_tolerance) {
     if (!(tol >= 0.0) || !std::isfinite(tol))
       throw InputError(name + ": a face's edge tolerance must be a finite number >= 0, got " + std::to_string(tol));
@@ -1756,6 +1761,7 @@ void add_face(PartBuilder& b, const FaceGeometry& g, const std::function<bool(Pa
   if (uniform && !g.grid_u.empty()) {
     pf.graded_u = static_cast<int>(g.grid_u.size()) - 1;
     pf.graded_v = static_cast<int>(g.grid_v.size()) - 1;
+    pf.graded_segments = g.graded_segments > 0.0 ? std::min(g.graded_segments, double(g.segments)) : g.segments;
   }
   pf.solid = g.solid;
   pf.status = "skipped";
@@ -1844,6 +1850,10 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
     budget::check("tessellating the part's faces");
     const SchemeSpec scheme = face_scheme(options, g.report.face_index);
     g.segments = scheme_segments(scheme);
+    const size_t fi = static_cast<size_t>(g.report.face_index);
+    g.graded_segments = scheme.scheme == Scheme::kUniform && fi < options.face_graded_segments.size()
+                            ? options.face_graded_segments[fi]
+                            : 0.0;
     tessellate_face_patches(g, scheme, options.graded_grids);
   }
   std::vector<EdgePlan> plans;

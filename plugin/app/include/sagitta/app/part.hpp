@@ -163,6 +163,10 @@ struct PartFit {
   // Segments per patch side of each face (by face index) when the faces took their own densities;
   // empty when every face took `segments`.
   std::vector<int> face_segments;
+  // The real N of faces on graded grids (by face index, 0: the face's integer N), found between the
+  // largest integer N that misses and the smallest that meets (occt::PartOptions::face_graded_segments);
+  // empty when no face took one.
+  std::vector<double> face_graded_segments;
   double edge_tolerance = 0.0;
   // Tighter edge tolerances of some faces (by face index, 0: edge_tolerance), given to the faces
   // whose certified interval the slivers at their trimming curves widened past the ratio limits

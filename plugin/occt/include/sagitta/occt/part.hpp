@@ -28,6 +28,10 @@ struct PartOptions {
   // scheme's level / segments where > 0 (the fit gives each face its own density). Shorter than the
   // face count: the remaining faces take the scheme's.
   std::vector<int> face_segments;
+  // uniform only: where > 0, a real N for face f's graded grid (docs/CAD.md, "Graded grids") in place
+  // of its integer segments, at most that integer: the fit's steps between two integer N, since a
+  // graded face's cells grow with N continuously. A face that keeps the per-patch grid ignores it.
+  std::vector<double> face_graded_segments;
   // > 0: a tighter edge tolerance for the edges of face f (by face index; an edge takes the smallest
   // of the global one and those of its faces). The fit tightens the trimming curves of faces whose
   // certified interval is widened by the slivers between curve and chords. Shorter than the face
@@ -96,6 +100,7 @@ struct PartFace {
   // uniform on a face whose knot spans differ in size (docs/CAD.md, "Graded grids"): the cells of
   // the face's own grid along U and V, which replaces the per-patch grid above (0: not graded).
   int graded_u = 0, graded_v = 0;
+  double graded_segments = 0.0;   // the real N the graded grid was built for (0: not graded)
   uint64_t triangles = 0;         // emitted triangles of the face
   uint64_t scheme_triangles = 0;  // of those, the scheme's own triangles kept unchanged
   uint64_t boundary_vertices = 0; // shared edge vertices on the face's loops
