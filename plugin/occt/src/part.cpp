@@ -594,6 +594,17 @@ void tessellate_graded(FaceGeometry& g, std::vector<double> lines_u, std::vector
 // patches), a graded one is triangulated from its loops like a trimmed face.
 bool try_graded_grid(FaceGeometry& g, double segments, int nu, int nv) {
   if (g.nu * g.nv <= 1) return false;
+  // Only a face whose knot spans differ in size (by more than 2x in U or V) leaves the per-patch
+  // grid: on equal spans (a torus's or a cylinder's quarter arcs) the scheme's own tessellation stays.
+  const auto uneven = [](const std::vector<double>& breaks) {
+    double shortest = std::numeric_limits<double>::infinity(), longest = 0.0;
+    for (size_t k = 0; k + 1 < breaks.size(); ++k) {
+      const double width = breaks[k + 1] - breaks[k];
+      if (width > 0.0) shortest = std::min(shortest, width), longest = std::max(longest, width);
+    }
+    return longest > 2.0 * shortest;
+  };
+  if (!uneven(g.report.u_breaks) && !uneven(g.report.v_breaks)) return false;
   const SpanNeeds need = span_needs(g, segments);
   std::vector<double> lines_u = graded_lines(g.report.u_breaks, need.u, need.kink_u);
   std::vector<double> lines_v = graded_lines(g.report.v_breaks, need.v, need.kink_v);
