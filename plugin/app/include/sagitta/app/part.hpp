@@ -154,7 +154,9 @@ nlohmann::json part_report_entry(const std::string& path, const std::string& nam
 // the search at once: it follows the certified faces' largest bound, and ends with met = false (and
 // the faces that are not certified, with why) when some face is still not certified at the chosen N.
 // It stops at once when no face is certified, when the same faces are not certified at two
-// doublings in a row (their reasons do not depend on N), and at kMaxFitSegments.
+// doublings in a row (their reasons do not depend on N), and at kMaxFitSegments. Faces on graded
+// grids then take a real N between the integer that misses and the one that meets (docs/FITTING.md
+// step 2b).
 struct PartFit {
   bool met = false;
   std::string reason;          // why not met ("" when met)
