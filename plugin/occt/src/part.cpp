@@ -2037,11 +2037,64 @@ void set_end_tolerance(PartBuilder& b, const TopoDS_Edge& edge, const EdgeSample
   for (const uint32_t v : {s.vertex.front(), s.vertex.back()}) b.vertex_tolerance[v] = std::max(b.vertex_tolerance[v], tol);
 }
 
+// A pole (a degenerated edge) in a foreign mesh: the mesh has one vertex P there (s.vertex all P),
+// the face a segment of (u, v) (the edge's p-curve, a line). Each triangle (P, a, b) becomes (P at
+// a', a, b) and the collapsed (P at a', b, P at b'), a' and b' the projections of a and b onto the
+// segment: together they tile the quadrilateral a', a, b, b' of (u, v), and the fan's collapsed
+// triangles meet along the segment at the pole's samples (every a', b' becomes an edge parameter of
+// the pole, s.t). raw: the corners' (u, v) in the face's own parameters. Without this, a fan corner
+// at one (u, v) of the segment (a mesher's node at the pole) makes the triangle's (u, v) map sweep
+// across the meridians and its bound first-order.
+void tile_pole(const FaceGeometry& g, const TopoDS_Edge& edge, EdgeSamples& s,
+               std::vector<std::array<uint32_t, 3>>& triangles, std::vector<std::array<Vec2, 3>>& raw) {
+  double f = 0.0, l = 0.0;
+  const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(edge, g.face, f, l);
+  if (pc.IsNull()) return;
+  const gp_Pnt2d p0 = pc->Value(f), p1 = pc->Value(l);
+  const Vec2 A(p0.X(), p0.Y()), B(p1.X(), p1.Y());
+  const double len2 = glm::dot(B - A, B - A);
+  if (!(len2 > 0.0)) return;
+  const uint32_t pole = s.vertex.front();
+  const auto along = [&](const Vec2& q) { return std::clamp(glm::dot(q - A, B - A) / len2, 0.0, 1.0); };
+  std::vector<double> t = s.t;
+  std::vector<size_t> dropped;
+  const size_t count = triangles.size();
+  for (size_t k = 0; k < count; ++k) {
+    int c = 0;
+    while (c < 3 && triangles[k][c] != pole) ++c;
+    if (c == 3) continue;
+    const int a = (c + 1) % 3, bb = (c + 2) % 3;
+    // Two corners at the pole (a mesher's nodes at both ends of the segment, one vertex in space): a
+    // triangle without area, whose (u, v) the tiling of its neighbours' fans covers; dropped.
+    if (triangles[k][a] == pole || triangles[k][bb] == pole) {
+      dropped.push_back(k);
+      continue;
+    }
+    const double sa = along(raw[k][a]), sb = along(raw[k][bb]);
+    const Vec2 qa = A + sa * (B - A), qb = A + sb * (B - A);
+    t.push_back(f + sa * (l - f)), t.push_back(f + sb * (l - f));
+    raw[k][c] = qa;
+    if (sa != sb) {
+      triangles.push_back({pole, triangles[k][bb], pole});
+      raw.push_back({qa, raw[k][bb], qb});
+    }
+  }
+  for (auto k = dropped.rbegin(); k != dropped.rend(); ++k) {
+    triangles.erase(triangles.begin() + static_cast<std::ptrdiff_t>(*k));
+    raw.erase(raw.begin() + static_cast<std::ptrdiff_t>(*k));
+  }
+  std::sort(t.begin(), t.end());
+  t.erase(std::unique(t.begin(), t.end()), t.end());
+  s.t = std::move(t);
+  s.vertex.assign(s.t.size(), pole);
+}
+
 // One face of BRepMesh's mesh: the edges' samples from their Poly_PolygonOnTriangulation on the face's
 // triangulation, the nodes' (u, v) from the triangulation.
 bool brepmesh_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, PartFace& pf, double part_size) {
   TopLoc_Location loc;
   const Handle(Poly_Triangulation) tri = BRep_Tool::Triangulation(g.face, loc);
+  std::vector<TopoDS_Edge> poles;  // degenerated edges whose nodes are one mesh vertex
   if (tri.IsNull() || tri->NbTriangles() == 0) {
     pf.reason = "the mesher left no triangles on the face";
     return false;
@@ -2073,6 +2126,9 @@ bool brepmesh_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, Part
     if (s.free) {
       for (size_t k = 0; k + 1 < s.vertex.size(); ++k) b.out.boundary_edges.push_back({s.vertex[k], s.vertex[k + 1]});
     }
+    if (s.degenerated &&
+        std::all_of(s.vertex.begin(), s.vertex.end(), [&](uint32_t v) { return v == s.vertex.front(); }))
+      poles.push_back(edge);
     b.edges[e] = std::move(s);
   }
   for (uint32_t v : id) {
@@ -2090,6 +2146,8 @@ bool brepmesh_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, Part
     tris.push_back({id[n[0]], id[n[1]], id[n[2]]});
     raw.push_back(q);
   }
+  for (const TopoDS_Edge& edge : poles)
+    tile_pole(g, edge, b.edges[static_cast<size_t>(b.x.edges.FindIndex(edge) - 1)], tris, raw);
   return take_face(b, g, pf, tris, raw, false);
 }
 
@@ -2343,38 +2401,7 @@ bool take_mesh_face(PartBuilder& b, const MeshOnShape& m, const FaceGeometry& g,
     const int e = b.x.edges.FindIndex(edge) - 1;
     EdgeSamples& s = b.edges[static_cast<size_t>(e)];
     if (BRep_Tool::Degenerated(edge) && s.vertex.size() == 2) {
-      // A pole: the mesh has one vertex P there, the face a segment of (u, v) (the edge's p-curve, a
-      // line). Each triangle (P, a, b) becomes (P at a', a, b) and the collapsed (P at a', b, P at b'),
-      // a' and b' the projections of a and b onto the segment: together they tile the quadrilateral
-      // a', a, b, b' of (u, v), and the fan's collapsed triangles meet along the segment at the pole's
-      // samples (every a', b' becomes an edge parameter of the pole).
-      double f = 0.0, l = 0.0;
-      const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(edge, g.face, f, l);
-      if (pc.IsNull()) continue;
-      const gp_Pnt2d p0 = pc->Value(f), p1 = pc->Value(l);
-      const Vec2 A(p0.X(), p0.Y()), B(p1.X(), p1.Y());
-      const double len2 = glm::dot(B - A, B - A);
-      if (!(len2 > 0.0)) continue;
-      const uint32_t pole = s.vertex.front();
-      const auto along = [&](const Vec2& q) { return std::clamp(glm::dot(q - A, B - A) / len2, 0.0, 1.0); };
-      const size_t count = triangles.size();
-      for (size_t t = 0; t < count; ++t) {
-        int c = 0;
-        while (c < 3 && triangles[t][c] != pole) ++c;
-        if (c == 3) continue;
-        const int a = (c + 1) % 3, bb = (c + 2) % 3;
-        const double sa = along(raw[t][a]), sb = along(raw[t][bb]);
-        const Vec2 qa = A + sa * (B - A), qb = A + sb * (B - A);
-        s.t.push_back(f + sa * (l - f)), s.t.push_back(f + sb * (l - f));
-        raw[t][c] = qa;
-        if (sa != sb) {
-          triangles.push_back({pole, triangles[t][bb], pole});
-          raw.push_back({qa, raw[t][bb], qb});
-        }
-      }
-      std::sort(s.t.begin(), s.t.end());
-      s.t.erase(std::unique(s.t.begin(), s.t.end()), s.t.end());
-      s.vertex.assign(s.t.size(), pole);
+      tile_pole(g, edge, s, triangles, raw);
       continue;
     }
     double first = 0.0, last = 0.0;

@@ -711,6 +711,34 @@ TEST(AppPart, NeighboursOfAChordAreBoundedWhereTheyMeetItsStrip) {
   EXPECT_GE(within, trimmed - 4);
 }
 
+// BRepMesh at a pole (docs/VALIDATION.md, foreign meshes): its fan round a sphere's pole uses the
+// pole's nodes at the two ends of the degenerated edge's segment in (u, v) (one vertex in space), so
+// a fan triangle's (u, v) map swept across the meridians and its bound was first-order (the fixture
+// sphere at D = 0.1 certified [0.049, 1.78]). The fan is now tiled as our own meshes of a pole are
+// (each pole corner at its neighbours' projections onto the segment, plus the collapsed triangles,
+// the area-less triangle spanning the segment dropped): tight, and the bound holds against brute
+// force.
+TEST(AppPart, BRepMeshFansAtAPoleAreBoundedTightly) {
+  const std::string dir = SAGITTA_CAD_FIXTURE_DIR;
+  if (dir.empty()) GTEST_SKIP() << "no FreeCAD fixtures (freecadcmd missing)";
+  for (double deflection : {0.1, 0.02}) {
+    occt::BRepMeshOptions options;
+    options.deflection = deflection;
+    options.solid_facts = false;
+    const occt::PartMesh peer = occt::brepmesh_part_file(dir + "/sphere.brep", options);
+    const app::PartCertificate cert = app::certify_part(peer);
+    ASSERT_TRUE(cert.all_certified) << "D = " << deflection;
+    for (const app::FaceCertificate& f : cert.faces) {
+      EXPECT_LE(f.hausdorff.upper, 1.1 * f.hausdorff.lower)
+          << "D = " << deflection << " [" << f.hausdorff.lower << ", " << f.hausdorff.upper << "]";
+      EXPECT_GE(f.hausdorff.upper, 0.5 * deflection) << "D = " << deflection;
+    }
+    const app::PartValidation v = app::validate_part(peer);
+    EXPECT_EQ(v.crack_edges, 0u);
+    expect_face_bounds_hold(peer, cert);
+  }
+}
+
 // An open shell of untrimmed planes (FreeCAD fixture): every face covered, the part certified as a
 // whole, and its rim (the B-rep's free edges) is model boundary, not a crack.
 TEST(AppPart, UntrimmedOpenShellIsCertifiedWhole) {
