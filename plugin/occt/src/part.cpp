@@ -2146,8 +2146,38 @@ bool brepmesh_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, Part
     tris.push_back({id[n[0]], id[n[1]], id[n[2]]});
     raw.push_back(q);
   }
-  for (const TopoDS_Edge& edge : poles)
-    tile_pole(g, edge, b.edges[static_cast<size_t>(b.x.edges.FindIndex(edge) - 1)], tris, raw);
+  if (!poles.empty()) {
+    // The tiling is kept only when every triangle at a pole keeps the face's orientation in (u, v)
+    // with an area (the majority's of the triangles off the poles); otherwise (a fan corner on the
+    // pole's meridian, a fold) the mesher's own (u, v) stay.
+    std::vector<std::array<uint32_t, 3>> tiled = tris;
+    std::vector<std::array<Vec2, 3>> tiled_raw = raw;
+    std::vector<std::pair<size_t, EdgeSamples>> saved;
+    std::set<uint32_t> pole_vertices;
+    for (const TopoDS_Edge& edge : poles) {
+      const size_t e = static_cast<size_t>(b.x.edges.FindIndex(edge) - 1);
+      saved.emplace_back(e, b.edges[e]);
+      pole_vertices.insert(b.edges[e].vertex.front());
+      tile_pole(g, edge, b.edges[e], tiled, tiled_raw);
+    }
+    const auto sign = [](const std::array<Vec2, 3>& q) {
+      const double area = (q[1].x - q[0].x) * (q[2].y - q[0].y) - (q[2].x - q[0].x) * (q[1].y - q[0].y);
+      return area > 0.0 ? 1 : area < 0.0 ? -1 : 0;
+    };
+    const auto at_pole = [&](const std::array<uint32_t, 3>& t) {
+      return pole_vertices.count(t[0]) || pole_vertices.count(t[1]) || pole_vertices.count(t[2]);
+    };
+    int majority = 0;
+    for (size_t t = 0; t < tris.size(); ++t) majority += at_pole(tris[t]) ? 0 : sign(raw[t]);
+    bool consistent = majority != 0;
+    for (size_t t = 0; t < tiled.size() && consistent; ++t)
+      consistent = !at_pole(tiled[t]) || sign(tiled_raw[t]) == (majority > 0 ? 1 : -1);
+    if (consistent) {
+      tris = std::move(tiled), raw = std::move(tiled_raw);
+    } else {
+      for (auto& [e, samples] : saved) b.edges[e] = std::move(samples);
+    }
+  }
   return take_face(b, g, pf, tris, raw, false);
 }
 
