@@ -223,14 +223,13 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   if (uniform_met) best = std::move(run), best_tolerance = tolerance;
   const auto keep_if_better = [&](PartRun& trial, const std::vector<int>& segments,
                                   const std::vector<double>& tolerances, const std::vector<double>& graded = {}) {
-    if (!all_meet(trial)) return false;
-    if (!best.part.faces.empty() && best.part.mesh.triangles.size() <= trial.part.mesh.triangles.size()) return false;
+    if (!all_meet(trial)) return;
+    if (!best.part.faces.empty() && best.part.mesh.triangles.size() <= trial.part.mesh.triangles.size()) return;
     best = std::move(trial);
     best_segments = segments;
     best_tolerance = tolerances;
     best_graded = graded;
     if (!segments.empty()) best_n = *std::max_element(segments.begin(), segments.end());
-    return true;
   };
   // 2. Each face its own density. Every face's N is bisected between its lo and hi, all faces at
   //    once, one whole-part run per round; only runs in which every face meets are kept. Faces share

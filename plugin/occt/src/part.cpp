@@ -144,7 +144,9 @@ struct FaceGeometry {
   std::map<std::pair<double, double>, uint32_t> scheme_sides;
   int solid = -1;
   int segments = 1;  // the scheme's segments per patch side on this face (ESC: 1, the edge density's unit)
-  double graded_segments = 0.0;  // > 0: the graded grid's real N (PartOptions::face_graded_segments)
+  // The real N a graded grid is built for: PartOptions::face_graded_segments where > 0 (at most
+  // `segments`), else `segments`.
+  double graded_segments = 1.0;
   // The uniform scheme's grid on every patch of the face: segments_u x segments_v (face_grid: the
   // larger equal to `segments`, 1 x 1 when flat; 1 x 1 for ESC: the edge density's unit).
   int segments_u = 1, segments_v = 1;
@@ -633,8 +635,7 @@ void tessellate_face_patches(FaceGeometry& g, const SchemeSpec& scheme, bool gra
   if (spec.scheme == Scheme::kUniform && spec.patch_levels.empty()) {
     const FaceBend bend = face_bend(g.patches);
     const auto [nu, nv] = face_grid(g.segments, bend);
-    const double real_n = g.graded_segments > 0.0 ? std::min(g.graded_segments, double(g.segments)) : g.segments;
-    if (graded && !bend.flat && try_graded_grid(g, real_n, nu, nv)) {
+    if (graded && !bend.flat && try_graded_grid(g, g.graded_segments, nu, nv)) {
       g.segments_u = nu, g.segments_v = nv;
       return;
     }
@@ -1772,7 +1773,7 @@ void add_face(PartBuilder& b, const FaceGeometry& g, const std::function<bool(Pa
   if (uniform && !g.grid_u.empty()) {
     pf.graded_u = static_cast<int>(g.grid_u.size()) - 1;
     pf.graded_v = static_cast<int>(g.grid_v.size()) - 1;
-    pf.graded_segments = g.graded_segments > 0.0 ? std::min(g.graded_segments, double(g.segments)) : g.segments;
+    pf.graded_segments = g.graded_segments;
   }
   pf.solid = g.solid;
   pf.status = "skipped";
@@ -1862,9 +1863,10 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
     const SchemeSpec scheme = face_scheme(options, g.report.face_index);
     g.segments = scheme_segments(scheme);
     const size_t fi = static_cast<size_t>(g.report.face_index);
-    g.graded_segments = scheme.scheme == Scheme::kUniform && fi < options.face_graded_segments.size()
-                            ? options.face_graded_segments[fi]
-                            : 0.0;
+    const double real_n = scheme.scheme == Scheme::kUniform && fi < options.face_graded_segments.size()
+                              ? options.face_graded_segments[fi]
+                              : 0.0;
+    g.graded_segments = real_n > 0.0 ? std::min(real_n, double(g.segments)) : g.segments;
     tessellate_face_patches(g, scheme, options.graded_grids);
   }
   std::vector<EdgePlan> plans;
