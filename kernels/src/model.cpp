@@ -32,6 +32,13 @@ Box model_box(const Model& model) {
   return box;
 }
 
+double points_box_diagonal(const std::vector<Vec3>& points) {
+  if (points.empty()) return 0.0;
+  Box box{points.front(), points.front()};
+  for (const Vec3& p : points) box.lo = glm::min(box.lo, p), box.hi = glm::max(box.hi, p);
+  return box.diagonal();
+}
+
 double model_bytes(size_t patches, int du, int dv, bool rational) {
   const double points = double(du + 1) * double(dv + 1);
   constexpr double kHeapBlock = 32.0;  // allocator overhead per vector buffer

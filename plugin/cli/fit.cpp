@@ -12,7 +12,6 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
-#include <limits>
 #include <memory>
 
 namespace sagitta::cli {
@@ -38,10 +37,7 @@ struct FitCliOptions {
 double part_diagonal(const std::string& path) {
   SchemeSpec coarse;
   coarse.segments = 1;
-  const occt::PartMesh part = occt::mesh_part_file(path, app::part_options(coarse, 0.0));
-  Vec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-  for (const Vec3& p : part.mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
-  return part.mesh.positions.empty() ? 0.0 : Box{lo, hi}.diagonal();
+  return points_box_diagonal(occt::mesh_part_file(path, app::part_options(coarse, 0.0)).mesh.positions);
 }
 
 // A whole CAD part: uniform segments and an edge tolerance of half the target (app::fit_part).

@@ -18,7 +18,6 @@
 #include <cmath>
 #include <filesystem>
 #include <iostream>
-#include <limits>
 #include <memory>
 
 namespace sagitta::cli {
@@ -72,14 +71,7 @@ nlohmann::json run_one_part_scheme(const std::string& input, const SchemeSpec& s
   stats["scheme"] = name;
   stats["setting"] = setting;
   stats["degenerate_triangles"] = run.part.mesh.degenerate_triangles;
-  Vec3 lo{std::numeric_limits<double>::infinity()}, hi{-std::numeric_limits<double>::infinity()};
-  for (const Vec3& p : run.part.mesh.positions) {
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], p[a]);
-      hi[a] = std::max(hi[a], p[a]);
-    }
-  }
-  stats["box_diagonal"] = run.part.mesh.positions.empty() ? 0.0 : Box{lo, hi}.diagonal();
+  stats["box_diagonal"] = points_box_diagonal(run.part.mesh.positions);
   const std::string path = (std::filesystem::path(out_dir) / (name + ".ply")).string();
   io::write_mesh(run.part.mesh, path);
   stats["output"] = path;

@@ -28,6 +28,10 @@ Model replicate(const Model& model, int copies);
 // Bounding box of all control points.
 Box model_box(const Model& model);
 
+// Diagonal of the bounding box of the points (0 when there are none): of a part mesh's vertices,
+// which lie on the part, the diagonal `sagitta fit --relative` scales the target by.
+double points_box_diagonal(const std::vector<Vec3>& points);
+
 struct SideRef {
   uint32_t patch = 0;
   Side side = Side::kU0;

@@ -8,7 +8,6 @@
 #include <glm/common.hpp>
 
 #include <algorithm>
-#include <limits>
 #include <sstream>
 
 namespace sagitta::app {
@@ -142,9 +141,7 @@ nlohmann::json part_report_entry(const std::string& path, const std::string& nam
       entry["solids"] = run.part.solids.size();
       entry["closed_solids"] = run.validation.volumes.size();
       // The box of the first level's vertices (points on the part): the fit's default target is 1e-3 of it.
-      Vec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-      for (const Vec3& p : run.part.mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
-      entry["box_diagonal"] = run.part.mesh.positions.empty() ? 0.0 : Box{lo, hi}.diagonal();
+      entry["box_diagonal"] = points_box_diagonal(run.part.mesh.positions);
     }
     previous = run.part.mesh.triangles.size();
     rows.push_back(level_row(level, run));

@@ -571,10 +571,7 @@ TEST(AppPart, GradedFacesTakeARealNBetweenIntegers) {
 TEST(AppPart, FitNeedsNoMoreTrianglesThanBRepMeshOnBug24595) {
   const std::string path = shared_data("cad/step/bug24595_281390.stp");
   SAGITTA_REQUIRE_DATA(path);
-  const occt::PartMesh coarse = mesh_part(path, 0);
-  Vec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-  for (const Vec3& p : coarse.mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
-  const double target = 1e-3 * Box{lo, hi}.diagonal();
+  const double target = 1e-3 * points_box_diagonal(mesh_part(path, 0).mesh.positions);
   const app::PartFit fit = fit_file(path, target);
   ASSERT_TRUE(fit_meets(fit, target));
   if (!fit.face_edge_tolerance.empty()) ASSERT_EQ(fit.face_edge_tolerance.size(), fit.run.part.faces.size());
