@@ -407,6 +407,17 @@ Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q) {
     if (!(det > 1e-300)) break;
     const double ru = glm::dot(e.du, r), rv = glm::dot(e.dv, r);
     Vec2 step((c * ru - b * rv) / det, (a * rv - b * ru) / det);
+    // A parameter on a side of the domain where the distance decreases outwards (the gradient
+    // (r . du, r . dv) points out) is held there (active set): the step is then the 1D
+    // Gauss-Newton step in the other parameter, so a point beyond a side slides along it to its
+    // nearest point instead of stalling where the clamped 2D step fails.
+    const auto held = [](double t, double g) { return (t <= 0.0 && g < 0.0) || (t >= 1.0 && g > 0.0); };
+    const bool hold_u = held(q.x, ru), hold_v = held(q.y, rv);
+    if (hold_u && hold_v) break;
+    if (hold_u) step = Vec2(0.0, c > 0.0 ? rv / c : 0.0);
+    if (hold_v) step = Vec2(a > 0.0 ? ru / a : 0.0, 0.0);
+    // The gradient in the parameters that are free.
+    const Vec2 gradient(hold_u ? 0.0 : ru, hold_v ? 0.0 : rv);
     if (norm(step) < 1e-6) {
       // Near the solution the distance changes by O(|step|^2), below its own rounding, so the
       // descent test stalls at ~sqrt(u) in (u, v) and the result would depend on rounding (a
@@ -415,7 +426,8 @@ Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q) {
       const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
       const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
       const Vec3 nr = x - ne.position;
-      if (norm(Vec2(glm::dot(ne.du, nr), glm::dot(ne.dv, nr))) >= norm(Vec2(ru, rv))) break;
+      const Vec2 next_gradient(hold_u ? 0.0 : glm::dot(ne.du, nr), hold_v ? 0.0 : glm::dot(ne.dv, nr));
+      if (norm(next_gradient) >= norm(gradient)) break;
       q = next;
       e = ne;
       continue;
