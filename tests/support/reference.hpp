@@ -75,7 +75,14 @@ inline LD newton_distance(const BezierPatch& p, const LVec& x_in, LD u, LD v) {
     const LVec r = x - s;
     const LD a = dot(su, su), b = dot(su, sv), c = dot(sv, sv), det = a * c - b * b;
     if (!(det > 0) || !std::isfinite(det)) break;
-    LD du = (c * dot(su, r) - b * dot(sv, r)) / det, dv = (a * dot(sv, r) - b * dot(su, r)) / det;
+    const LD ru = dot(su, r), rv = dot(sv, r);
+    LD du = (c * ru - b * rv) / det, dv = (a * rv - b * ru) / det;
+    // A parameter on a side where the distance decreases outwards stays there and the other one
+    // takes the 1D step (a clamped 2D step can stall short of the nearest point of the side).
+    const bool hold_u = (u <= 0 && ru < 0) || (u >= 1 && ru > 0), hold_v = (v <= 0 && rv < 0) || (v >= 1 && rv > 0);
+    if (hold_u && hold_v) break;
+    if (hold_u) du = 0, dv = rv / c;
+    if (hold_v) dv = 0, du = ru / a;
     bool moved = false;
     for (int half = 0; half < 24 && !moved; ++half, du /= 2, dv /= 2) {
       const LD nu = std::clamp(u + du, LD(0), LD(1)), nv = std::clamp(v + dv, LD(0), LD(1));

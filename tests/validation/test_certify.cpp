@@ -127,6 +127,35 @@ TEST(Certify, PlanarBilinearPatchIsExact) {
   }
 }
 
+// A gentle bump over a square parametrised far from affinely (x = x(u), y = y(v), cubic and
+// monotone): the triangles' (u, v) drift along the surface from their positions, so the surface
+// over a leaf straddling a mesh edge is nearest to two triangles. Matched to one, the
+// corner-matched surface->mesh bound fell only with the leaf's size (as on shell1's B-spline
+// faces: [5.4e-5, 1.06e-3]; here 2.0x and 3.7x the lower bound); the tiling by projected leaves
+// bounds it at second order.
+TEST(Certify, SurfaceOverDriftingTrianglesIsBoundedByProjectedLeaves) {
+  Model model;
+  BezierPatch p;
+  p.degree_u = 3;
+  p.degree_v = 3;
+  const double x[4] = {0.0, 0.05, 0.1, 1.0}, y[4] = {0.0, 0.6, 0.9, 1.0};
+  for (int i = 0; i <= 3; ++i) {
+    for (int j = 0; j <= 3; ++j) p.points.push_back(Vec3(x[i], y[j], (i % 3 && j % 3) ? 0.002 : 0.0));
+  }
+  model.patches.push_back(p);
+  for (int n : {3, 6}) {
+    const Tessellation mesh = uniform(model, n);
+    const DistanceReport r = certify_distance(model, mesh);
+    std::cout << "n = " << n << ": mesh->surface [" << r.mesh_to_surface.lower << ", " << r.mesh_to_surface.upper
+              << "], surface->mesh [" << r.surface_to_mesh.lower << ", " << r.surface_to_mesh.upper << "]\n";
+    EXPECT_TRUE(r.hausdorff.certified);
+    EXPECT_LE(r.surface_to_mesh.upper, 1.1 * r.hausdorff.lower) << "n = " << n;
+    EXPECT_LE(r.hausdorff.upper, 1.1 * r.hausdorff.lower) << "n = " << n;
+    const Brute br = brute_force(model, mesh, 12, every(mesh, 1));
+    EXPECT_LE(static_cast<double>(br.max_distance), r.mesh_to_surface.upper * (1 + 1e-9)) << "n = " << n;
+  }
+}
+
 // A planar cubic x linear patch with one side collapsed to a point (a B-spline "face" of
 // bearing.iges): the surface is a plane region bounded by a cubic arc, the mesh a fan of chords of
 // that arc, so the distance is zero inside and the chords' sagitta at the arc. Leaves where the

@@ -83,6 +83,9 @@ BezierPatch shifted_patch(const BezierPatch& patch) {
 
 // Per patch data: homogeneous control points relative to a local origin and the magnitudes the
 // rounding bound needs.
+// Which parameter a projection keeps (Fixed::u: it moves along the side u = q.x only).
+enum class Fixed { none, u, v };
+
 struct PatchData {
   const BezierPatch* patch = nullptr;
   int n = 0, m = 0;
@@ -94,6 +97,8 @@ struct PatchData {
   BezierPatch shifted;     // the patch moved so its first control point is the origin (project_shifted)
   // Projection of x onto the patch seeded at q: project() without copying the patch.
   Vec2 project(const Vec3& x, Vec2 q) const;
+  // The same with one parameter kept at q's.
+  Vec2 project_keeping(const Vec3& x, Vec2 q, Fixed fixed) const;
   // A bound on |eval(*patch, q) - S(q)|, the rounding of the de Casteljau evaluation below.
   double eval_rounding() const { return 4.0 * (n + m + 2) * kUnit * (hmag / wmin + norm(origin)) * wmax / wmin; }
 };
@@ -397,7 +402,7 @@ SAGITTA_BOUND_CLONES double composed_bound(const PatchData& P, const Vec2 q[3], 
 // the descent test well before the projection, and the bounds built on the result then change with
 // a translation of the model. Any parameters are sound; this makes them (nearly) translation
 // invariant.
-Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q) {
+Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q, Fixed fixed = Fixed::none) {
   SurfacePointEval e = evaluate_with_derivatives(patch, q.x, q.y);
   double best = norm(x - e.position);
   for (int it = 0; it < 12; ++it) {
@@ -412,7 +417,7 @@ Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q) {
     // Gauss-Newton step in the other parameter, so a point beyond a side slides along it to its
     // nearest point instead of stalling where the clamped 2D step fails.
     const auto held = [](double t, double g) { return (t <= 0.0 && g < 0.0) || (t >= 1.0 && g > 0.0); };
-    const bool hold_u = held(q.x, ru), hold_v = held(q.y, rv);
+    const bool hold_u = fixed == Fixed::u || held(q.x, ru), hold_v = fixed == Fixed::v || held(q.y, rv);
     if (hold_u && hold_v) break;
     if (hold_u) step = Vec2(0.0, c > 0.0 ? rv / c : 0.0);
     if (hold_v) step = Vec2(a > 0.0 ? ru / a : 0.0, 0.0);
@@ -454,6 +459,10 @@ Vec2 project(const BezierPatch& patch, const Vec3& x, Vec2 q) {
 }
 
 Vec2 PatchData::project(const Vec3& x, Vec2 q) const { return project_shifted(shifted, x - patch->points[0], q); }
+
+Vec2 PatchData::project_keeping(const Vec3& x, Vec2 q, Fixed fixed) const {
+  return project_shifted(shifted, x - patch->points[0], q, fixed);
+}
 
 // S(q): de_casteljau<double> (kernels/src/evaluate.cpp) on the stack, the same operations (the
 // degrees int, or std::integral_constant for degrees 1 to 3: unrolled).
@@ -576,6 +585,9 @@ struct TriangleResult {
   Vec2 s2m_uv{0.0};
   uint64_t leaves = 0;
   bool exhausted = false;
+  // The leaves kept, by barycentric corners, when the triangle was subdivided (empty: the whole
+  // triangle is its one leaf); surface_over_projected_leaves tiles the surface with them.
+  std::vector<std::array<Vec3, 3>> kept_leaves;
 };
 
 struct Leaf {
@@ -599,6 +611,7 @@ struct CornerData {
 class CornerCache {
  public:
   CornerData& at(const Vec3& b) { return map_[Key{b.x, b.y, b.z}]; }
+  bool contains(const Vec3& b) const { return map_.count(Key{b.x, b.y, b.z}) != 0; }
   void clear() { map_.clear(); }
 
  private:
@@ -832,6 +845,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
     if (!done && !settled) res.exhausted = true;
     res.m2s = std::max(res.m2s, b.m2s);
     res.s2m = std::max(res.s2m, b.s2m);
+    if (leaf.depth > 0 || !res.kept_leaves.empty()) res.kept_leaves.push_back(leaf.b);
     kept = true;
   }
   return res;
@@ -1722,6 +1736,214 @@ std::vector<uint32_t> triangles_near_queries(const Tessellation& mesh, const std
   return subset;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Surface->mesh over the projected leaves.
+//
+// The corner-matched surface->mesh bound of a leaf pairs its surface corners with their closest
+// points on one mesh triangle; where the surface over a leaf is nearest to two triangles (along a
+// mesh edge, when the triangles' (u, v) drift from their positions along the surface) it falls
+// only with the leaf's size. Here the surface is tiled instead by the leaves mapped through the
+// projections of their points: for a leaf with points X_k (its corners and the other leaves'
+// corners on its sides, in order around it) and their projections p_k onto the patch, each fan
+// triangle (p_0, p_k, p_k+1) carries the composed bound of S over it against the flat triangle
+// (X_0, X_k, X_k+1), which lies on the mesh. A point shared by several leaves (or two mesh
+// triangles) is computed from canonical data, so it projects to the same p in all; the fans' edges
+// then cancel in pairs except along the patch's sides, where points project along the side only.
+// So the fans' boundaries add up to the square's boundary, every point of [0, 1]^2 has winding
+// number 1 around them, lies in some fan triangle, and its surface point is within that triangle's
+// bound of the mesh. The bound is the largest over the fans (no per-triangle coverage is needed).
+
+// A point of a triangle at exact barycentric b, with (u, v) and position computed from canonical
+// data: a mesh vertex's own, a point of a mesh edge from the edge's endpoints in a fixed order.
+struct ChainPoint {
+  Vec2 q;
+  Vec3 X;
+};
+
+bool lexicographic_less(const Vec2& qa, const Vec3& xa, const Vec2& qb, const Vec3& xb) {
+  const std::array<double, 5> a{qa.x, qa.y, xa.x, xa.y, xa.z}, b{qb.x, qb.y, xb.x, xb.y, xb.z};
+  return a < b;
+}
+
+ChainPoint chain_point(const std::array<Vec2, 3>& uv, const std::array<Vec3, 3>& T, const Vec3& b) {
+  const double w[3] = {b.x, b.y, b.z};
+  int zeros = 0, zero = -1;
+  for (int i = 0; i < 3; ++i) {
+    if (w[i] == 0.0) ++zeros, zero = i;
+  }
+  if (zeros == 2) {
+    for (int i = 0; i < 3; ++i) {
+      if (w[i] != 0.0) return {uv[static_cast<size_t>(i)], T[static_cast<size_t>(i)]};
+    }
+  }
+  if (zeros == 1) {
+    size_t i = static_cast<size_t>((zero + 1) % 3), j = static_cast<size_t>((zero + 2) % 3);
+    if (lexicographic_less(uv[j], T[j], uv[i], T[i])) std::swap(i, j);
+    const double t = w[j];  // exact (dyadic); 1 - t is exact too
+    return {(1.0 - t) * uv[i] + t * uv[j], (1.0 - t) * T[i] + t * T[j]};
+  }
+  return {b.x * uv[0] + b.y * uv[1] + b.z * uv[2], b.x * T[0] + b.y * T[1] + b.z * T[2]};
+}
+
+// The canonical key of a mesh edge of one patch: its endpoints' (u, v) and positions, ordered.
+struct EdgeKey {
+  uint32_t patch;
+  std::array<double, 10> ends;
+  bool operator==(const EdgeKey& o) const { return patch == o.patch && ends == o.ends; }
+};
+struct EdgeKeyHash {
+  size_t operator()(const EdgeKey& k) const {
+    size_t h = std::hash<uint32_t>()(k.patch);
+    for (double d : k.ends) h = h * 0x9e3779b97f4a7c15ull ^ std::hash<double>()(d);
+    return h;
+  }
+};
+
+EdgeKey edge_key(uint32_t patch, const Vec2& qa, const Vec3& xa, const Vec2& qb, const Vec3& xb) {
+  const bool swap = lexicographic_less(qb, xb, qa, xa);
+  const Vec2& q0 = swap ? qb : qa;
+  const Vec2& q1 = swap ? qa : qb;
+  const Vec3& x0 = swap ? xb : xa;
+  const Vec3& x1 = swap ? xa : xb;
+  return {patch, {q0.x, q0.y, x0.x, x0.y, x0.z, q1.x, q1.y, x1.x, x1.y, x1.z}};
+}
+
+// Which side of [0, 1]^2 the segment (a, b) lies on, as the fixed parameter (none: not on one).
+Fixed side_of(const Vec2& a, const Vec2& b) {
+  const auto bound = [](double t) { return t == 0.0 || t == 1.0; };
+  if (bound(a.x) && a.x == b.x) return Fixed::u;
+  if (bound(a.y) && a.y == b.y) return Fixed::v;
+  return Fixed::none;
+}
+
+// The projection of a chain point: a corner of [0, 1]^2 stays, a point of a side moves along it,
+// any other point is projected onto the patch (clamped to it).
+Vec2 chain_projection(const PatchData& P, const ChainPoint& c) {
+  const auto bound = [](double t) { return t == 0.0 || t == 1.0; };
+  if (bound(c.q.x) && bound(c.q.y)) return c.q;
+  if (bound(c.q.x)) return P.project_keeping(c.X, c.q, Fixed::u);
+  if (bound(c.q.y)) return P.project_keeping(c.X, c.q, Fixed::v);
+  return P.project(c.X, c.q);
+}
+
+// The surface->mesh bound over the projected leaves (see above), per triangle; empty when the
+// mesh's (u, v) triangles do not form a conforming tiling of each patch (an inner edge not shared
+// by exactly two triangles with the same positions, or a boundary edge off the square's sides).
+std::vector<double> surface_over_projected_leaves(const Tessellation& mesh, const std::vector<PatchData>& pd,
+                                                  const std::vector<TriangleResult>& results) {
+  const size_t count = mesh.triangles.size();
+  // Every mesh edge: shared by two triangles, or on a side of its patch.
+  std::unordered_map<EdgeKey, int, EdgeKeyHash> edges;
+  for (size_t t = 0; t < count; ++t) {
+    const auto T = triangle_corners(mesh, t);
+    const auto& uv = mesh.triangle_uv[t];
+    for (size_t i = 0; i < 3; ++i) {
+      const size_t j = (i + 1) % 3;
+      ++edges[edge_key(mesh.triangle_patch[t], uv[i], T[i], uv[j], T[j])];
+    }
+  }
+  for (const auto& [key, n] : edges) {
+    const Vec2 a(key.ends[0], key.ends[1]), b(key.ends[5], key.ends[6]);
+    if (n > 2 || (n == 1 && side_of(a, b) == Fixed::none)) return {};
+  }
+  // The leaves' corners on each mesh edge, by their parameter from the edge's first end.
+  const auto leaves_of = [&](size_t t) {
+    return results[t].kept_leaves.empty()
+               ? std::vector<std::array<Vec3, 3>>{{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}}
+               : results[t].kept_leaves;
+  };
+  // Which mesh edge (by the corner index opposite it) a barycentric point with one zero lies on, and
+  // its key and canonical parameter.
+  const auto on_edge = [&](size_t t, const Vec3& b, EdgeKey& key, double& param) {
+    const double w[3] = {b.x, b.y, b.z};
+    int zeros = 0, zero = -1;
+    for (int i = 0; i < 3; ++i) {
+      if (w[i] == 0.0) ++zeros, zero = i;
+    }
+    if (zeros != 1) return false;
+    const auto T = triangle_corners(mesh, t);
+    const auto& uv = mesh.triangle_uv[t];
+    size_t i = static_cast<size_t>((zero + 1) % 3), j = static_cast<size_t>((zero + 2) % 3);
+    if (lexicographic_less(uv[j], T[j], uv[i], T[i])) std::swap(i, j);
+    key = edge_key(mesh.triangle_patch[t], uv[i], T[i], uv[j], T[j]);
+    param = w[j];
+    return true;
+  };
+  std::unordered_map<EdgeKey, std::vector<double>, EdgeKeyHash> edge_points;
+  for (size_t t = 0; t < count; ++t) {
+    if (results[t].kept_leaves.empty()) continue;
+    for (const auto& leaf : results[t].kept_leaves) {
+      for (const Vec3& b : leaf) {
+        EdgeKey key;
+        double param = 0.0;
+        if (on_edge(t, b, key, param)) edge_points[key].push_back(param);
+      }
+    }
+  }
+  for (auto& [key, params] : edge_points) {
+    std::sort(params.begin(), params.end());
+    params.erase(std::unique(params.begin(), params.end()), params.end());
+  }
+  std::vector<double> bound(count, 0.0);
+  tbb::parallel_for(size_t(0), count, [&](size_t t) {
+    budget::check("validation");
+    Scratch s;
+    const auto T = triangle_corners(mesh, t);
+    const auto& uv = mesh.triangle_uv[t];
+    const PatchData& P = pd[mesh.triangle_patch[t]];
+    const std::vector<std::array<Vec3, 3>> leaves = leaves_of(t);
+    CornerCache inside;  // the leaves' corners (the data is unused: membership only)
+    for (const auto& leaf : leaves) {
+      for (const Vec3& b : leaf) inside.at(b);
+    }
+    const auto present = [&](const Vec3& b) {
+      EdgeKey key;
+      double param = 0.0;
+      if (on_edge(t, b, key, param)) {
+        const auto it = edge_points.find(key);
+        return it != edge_points.end() && std::binary_search(it->second.begin(), it->second.end(), param);
+      }
+      return inside.contains(b);
+    };
+    std::map<std::array<double, 3>, Vec2> projected;
+    const auto projection = [&](const Vec3& b, ChainPoint& c) {
+      c = chain_point(uv, T, b);
+      auto [it, added] = projected.try_emplace({b.x, b.y, b.z});
+      if (added) it->second = chain_projection(P, c);
+      return it->second;
+    };
+    std::vector<Vec3> chain;
+    // The points of the open edge (a, b] of a leaf: midpoints first where some leaf has a corner.
+    const std::function<void(const Vec3&, const Vec3&, int)> walk = [&](const Vec3& a, const Vec3& b, int depth) {
+      const Vec3 m = 0.5 * (a + b);
+      if (depth < 64 && present(m)) {
+        walk(a, m, depth + 1);
+        walk(m, b, depth + 1);
+      } else {
+        chain.push_back(b);
+      }
+    };
+    double worst = 0.0;
+    for (const auto& leaf : leaves) {
+      chain.clear();
+      chain.push_back(leaf[0]);
+      walk(leaf[0], leaf[1], 0);
+      walk(leaf[1], leaf[2], 0);
+      walk(leaf[2], leaf[0], 0);
+      chain.pop_back();  // leaf[0] again
+      ChainPoint c0, c1, c2;
+      const Vec2 p0 = projection(chain[0], c0);
+      for (size_t k = 1; k + 1 < chain.size(); ++k) {
+        const Vec2 q[3] = {p0, projection(chain[k], c1), projection(chain[k + 1], c2)};
+        const Vec3 X[3] = {c0.X, c1.X, c2.X};
+        worst = std::max(worst, composed_bound(P, q, X, s));
+      }
+    }
+    bound[t] = worst;
+  });
+  return bound;
+}
+
 // The Hausdorff interval from the two one-sided ones; the witness of the larger lower bound.
 void set_hausdorff(DistanceReport& report) {
   report.hausdorff.lower = std::max(report.mesh_to_surface.lower, report.surface_to_mesh.lower);
@@ -1834,7 +2056,7 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
       keep_smaller(hole_results, first_holes);
     }
   }
-  const Uppers upper = collect_uppers(results, hole_results, report);
+  Uppers upper = collect_uppers(results, hole_results, report);
   report.rounding = worst_triangle_rounding(mesh, pd, report.triangle_upper);
   if (options.in_domain) {
     report.coverage_note = "restricted domain: the caller checks that the triangles cover it";
@@ -1843,6 +2065,17 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
     report.coverage_ok = check_coverage(model, mesh, holes, report.coverage_note);
   }
   report.holes = holes.size();
+  if (report.coverage_ok && holes.empty() && upper.s2m > options.target_ratio * upper.m2s) {
+    // The tiling by projected leaves, where the corner-matched bound sets the interval's upper end.
+    const std::vector<double> over = surface_over_projected_leaves(mesh, pd, results);
+    if (!over.empty()) {
+      const double s2m = *std::max_element(over.begin(), over.end());
+      if (s2m < upper.s2m) {
+        upper.s2m = s2m;
+        for (size_t t = 0; t < results.size(); ++t) report.triangle_upper[t] = std::max(results[t].m2s, over[t]);
+      }
+    }
+  }
   report.mesh_to_surface.upper = upper.m2s;
   report.mesh_to_surface.certified = true;
   report.surface_to_mesh.upper = report.coverage_ok ? upper.s2m : kInf;
