@@ -83,9 +83,6 @@ BezierPatch shifted_patch(const BezierPatch& patch) {
 
 // Per patch data: homogeneous control points relative to a local origin and the magnitudes the
 // rounding bound needs.
-// Which parameter a projection keeps (Fixed::u: it moves along the side u = q.x only).
-enum class Fixed { none, u, v };
-
 struct PatchData {
   const BezierPatch* patch = nullptr;
   int n = 0, m = 0;
@@ -97,8 +94,8 @@ struct PatchData {
   BezierPatch shifted;     // the patch moved so its first control point is the origin (project_shifted)
   // Projection of x onto the patch seeded at q: project() without copying the patch.
   Vec2 project(const Vec3& x, Vec2 q) const;
-  // The same with one parameter kept at q's.
-  Vec2 project_keeping(const Vec3& x, Vec2 q, Fixed fixed) const;
+  // Projection of x onto the patch's curve over the (u, v) segment from a to b, seeded at a + t (b - a).
+  Vec2 project_on_segment(const Vec3& x, Vec2 a, Vec2 b, double t) const;
   // A bound on |eval(*patch, q) - S(q)|, the rounding of the de Casteljau evaluation below.
   double eval_rounding() const { return 4.0 * (n + m + 2) * kUnit * (hmag / wmin + norm(origin)) * wmax / wmin; }
 };
@@ -402,7 +399,7 @@ SAGITTA_BOUND_CLONES double composed_bound(const PatchData& P, const Vec2 q[3], 
 // the descent test well before the projection, and the bounds built on the result then change with
 // a translation of the model. Any parameters are sound; this makes them (nearly) translation
 // invariant.
-Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q, Fixed fixed = Fixed::none) {
+Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q) {
   SurfacePointEval e = evaluate_with_derivatives(patch, q.x, q.y);
   double best = norm(x - e.position);
   for (int it = 0; it < 12; ++it) {
@@ -417,7 +414,7 @@ Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q, Fixed fixe
     // Gauss-Newton step in the other parameter, so a point beyond a side slides along it to its
     // nearest point instead of stalling where the clamped 2D step fails.
     const auto held = [](double t, double g) { return (t <= 0.0 && g < 0.0) || (t >= 1.0 && g > 0.0); };
-    const bool hold_u = fixed == Fixed::u || held(q.x, ru), hold_v = fixed == Fixed::v || held(q.y, rv);
+    const bool hold_u = held(q.x, ru), hold_v = held(q.y, rv);
     if (hold_u && hold_v) break;
     if (hold_u) step = Vec2(0.0, c > 0.0 ? rv / c : 0.0);
     if (hold_v) step = Vec2(a > 0.0 ? ru / a : 0.0, 0.0);
@@ -460,8 +457,37 @@ Vec2 project(const BezierPatch& patch, const Vec3& x, Vec2 q) {
 
 Vec2 PatchData::project(const Vec3& x, Vec2 q) const { return project_shifted(shifted, x - patch->points[0], q); }
 
-Vec2 PatchData::project_keeping(const Vec3& x, Vec2 q, Fixed fixed) const {
-  return project_shifted(shifted, x - patch->points[0], q, fixed);
+Vec2 PatchData::project_on_segment(const Vec3& x, Vec2 a, Vec2 b, double t) const {
+  // Damped Gauss-Newton in t on [0, 1], as project_shifted; any t is acceptable to the callers.
+  const Vec3 y = x - patch->points[0];
+  const Vec2 d = b - a;
+  const auto at = [&](double s) { return glm::clamp(a + s * d, Vec2(0.0), Vec2(1.0)); };
+  Vec2 q = at(t);
+  SurfacePointEval e = evaluate_with_derivatives(shifted, q.x, q.y);
+  double best = norm(y - e.position);
+  for (int it = 0; it < 12; ++it) {
+    const Vec3 tangent = d.x * e.du + d.y * e.dv;
+    const double tt = glm::dot(tangent, tangent);
+    if (!(tt > 1e-300)) break;
+    const double g = glm::dot(tangent, y - e.position);
+    double step = g / tt;
+    bool moved = false;
+    for (int half = 0; half < 20 && !moved; ++half, step *= 0.5) {
+      const double next_t = std::clamp(t + step, 0.0, 1.0);
+      const Vec2 next = at(next_t);
+      const SurfacePointEval ne = evaluate_with_derivatives(shifted, next.x, next.y);
+      const double dist = norm(y - ne.position);
+      if (dist < best) {
+        best = dist;
+        t = next_t;
+        q = next;
+        e = ne;
+        moved = true;
+      }
+    }
+    if (!moved || std::abs(step) < 1e-15) break;
+  }
+  return q;
 }
 
 // S(q): de_casteljau<double> (kernels/src/evaluate.cpp) on the stack, the same operations (the
@@ -1808,31 +1834,14 @@ EdgeKey edge_key(uint32_t patch, const Vec2& qa, const Vec3& xa, const Vec2& qb,
   return {patch, {q0.x, q0.y, x0.x, x0.y, x0.z, q1.x, q1.y, x1.x, x1.y, x1.z}};
 }
 
-// Which side of [0, 1]^2 the segment (a, b) lies on, as the fixed parameter (none: not on one).
-Fixed side_of(const Vec2& a, const Vec2& b) {
-  const auto bound = [](double t) { return t == 0.0 || t == 1.0; };
-  if (bound(a.x) && a.x == b.x) return Fixed::u;
-  if (bound(a.y) && a.y == b.y) return Fixed::v;
-  return Fixed::none;
-}
-
-// The projection of a chain point: a corner of [0, 1]^2 stays, a point of a side moves along it,
-// any other point is projected onto the patch (clamped to it).
-Vec2 chain_projection(const PatchData& P, const ChainPoint& c) {
-  const auto bound = [](double t) { return t == 0.0 || t == 1.0; };
-  if (bound(c.q.x) && bound(c.q.y)) return c.q;
-  if (bound(c.q.x)) return P.project_keeping(c.X, c.q, Fixed::u);
-  if (bound(c.q.y)) return P.project_keeping(c.X, c.q, Fixed::v);
-  return P.project(c.X, c.q);
-}
-
-// The surface->mesh bound over the projected leaves (see above), per triangle; empty when the
-// mesh's (u, v) triangles do not form a conforming tiling of each patch (an inner edge not shared
-// by exactly two triangles with the same positions, or a boundary edge off the square's sides).
+// The surface->mesh bound over the projected leaves (see above), per triangle: the fans of a
+// triangle's leaves cover (with those of the others) the union of the mesh's (u, v) triangles, and
+// those along an edge with one triangle cover that edge's (u, v) segment. Empty when an edge is
+// shared by more than two triangles.
 std::vector<double> surface_over_projected_leaves(const Tessellation& mesh, const std::vector<PatchData>& pd,
                                                   const std::vector<TriangleResult>& results) {
   const size_t count = mesh.triangles.size();
-  // Every mesh edge: shared by two triangles, or on a side of its patch.
+  // The mesh's edges, by how many triangles have them.
   std::unordered_map<EdgeKey, int, EdgeKeyHash> edges;
   for (size_t t = 0; t < count; ++t) {
     const auto T = triangle_corners(mesh, t);
@@ -1842,18 +1851,21 @@ std::vector<double> surface_over_projected_leaves(const Tessellation& mesh, cons
       ++edges[edge_key(mesh.triangle_patch[t], uv[i], T[i], uv[j], T[j])];
     }
   }
+  // The ends of the boundary edges (one triangle): they keep their own (u, v), and the edges' inner
+  // points move along the edge only, so the fans' outer boundary is the triangles' own.
+  std::unordered_map<EdgeKey, int, EdgeKeyHash> boundary_ends;  // keyed as the edge (end, end)
   for (const auto& [key, n] : edges) {
-    const Vec2 a(key.ends[0], key.ends[1]), b(key.ends[5], key.ends[6]);
-    if (n > 2 || (n == 1 && side_of(a, b) == Fixed::none)) return {};
+    if (n > 2) return {};
+    if (n != 1) continue;
+    for (int e = 0; e < 2; ++e) {
+      const double* c = key.ends.data() + 5 * e;
+      const Vec2 q(c[0], c[1]);
+      const Vec3 X(c[2], c[3], c[4]);
+      boundary_ends[edge_key(key.patch, q, X, q, X)] = 1;
+    }
   }
-  // The leaves' corners on each mesh edge, by their parameter from the edge's first end.
-  const auto leaves_of = [&](size_t t) {
-    return results[t].kept_leaves.empty()
-               ? std::vector<std::array<Vec3, 3>>{{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}}
-               : results[t].kept_leaves;
-  };
-  // Which mesh edge (by the corner index opposite it) a barycentric point with one zero lies on, and
-  // its key and canonical parameter.
+  // Which mesh edge a barycentric point with one zero lies on: its key and parameter from the
+  // edge's first end (as chain_point computes it).
   const auto on_edge = [&](size_t t, const Vec3& b, EdgeKey& key, double& param) {
     const double w[3] = {b.x, b.y, b.z};
     int zeros = 0, zero = -1;
@@ -1869,9 +1881,9 @@ std::vector<double> surface_over_projected_leaves(const Tessellation& mesh, cons
     param = w[j];
     return true;
   };
+  // The leaves' corners on each mesh edge, by parameter.
   std::unordered_map<EdgeKey, std::vector<double>, EdgeKeyHash> edge_points;
   for (size_t t = 0; t < count; ++t) {
-    if (results[t].kept_leaves.empty()) continue;
     for (const auto& leaf : results[t].kept_leaves) {
       for (const Vec3& b : leaf) {
         EdgeKey key;
@@ -1890,9 +1902,12 @@ std::vector<double> surface_over_projected_leaves(const Tessellation& mesh, cons
     Scratch s;
     const auto T = triangle_corners(mesh, t);
     const auto& uv = mesh.triangle_uv[t];
-    const PatchData& P = pd[mesh.triangle_patch[t]];
-    const std::vector<std::array<Vec3, 3>> leaves = leaves_of(t);
-    CornerCache inside;  // the leaves' corners (the data is unused: membership only)
+    const uint32_t patch = mesh.triangle_patch[t];
+    const PatchData& P = pd[patch];
+    const std::vector<std::array<Vec3, 3>> leaves =
+        results[t].kept_leaves.empty() ? std::vector<std::array<Vec3, 3>>{{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}}
+                                       : results[t].kept_leaves;
+    CornerCache inside;  // the leaves' corners (membership only)
     for (const auto& leaf : leaves) {
       for (const Vec3& b : leaf) inside.at(b);
     }
@@ -1905,15 +1920,31 @@ std::vector<double> surface_over_projected_leaves(const Tessellation& mesh, cons
       }
       return inside.contains(b);
     };
-    std::map<std::array<double, 3>, Vec2> projected;
-    const auto projection = [&](const Vec3& b, ChainPoint& c) {
-      c = chain_point(uv, T, b);
+    // A point's projection: a boundary edge's end keeps its (u, v), a boundary edge's inner point
+    // moves along the edge, any other point is projected onto the patch.
+    const auto project = [&](const Vec3& b, const ChainPoint& c) {
+      EdgeKey key;
+      double param = 0.0;
+      if (on_edge(t, b, key, param)) {
+        if (edges.at(key) != 1) return P.project(c.X, c.q);
+        return P.project_on_segment(c.X, Vec2(key.ends[0], key.ends[1]), Vec2(key.ends[5], key.ends[6]), param);
+      }
+      if (b.x == 1.0 || b.y == 1.0 || b.z == 1.0) {  // a mesh vertex
+        return boundary_ends.count(edge_key(patch, c.q, c.X, c.q, c.X)) ? c.q : P.project(c.X, c.q);
+      }
+      return P.project(c.X, c.q);
+    };
+    std::map<std::array<double, 3>, std::pair<ChainPoint, Vec2>> projected;
+    const auto point = [&](const Vec3& b) -> const std::pair<ChainPoint, Vec2>& {
       auto [it, added] = projected.try_emplace({b.x, b.y, b.z});
-      if (added) it->second = chain_projection(P, c);
+      if (added) {
+        it->second.first = chain_point(uv, T, b);
+        it->second.second = project(b, it->second.first);
+      }
       return it->second;
     };
     std::vector<Vec3> chain;
-    // The points of the open edge (a, b] of a leaf: midpoints first where some leaf has a corner.
+    // The points of the leaf edge (a, b], b last: a midpoint where some leaf has a corner first.
     const std::function<void(const Vec3&, const Vec3&, int)> walk = [&](const Vec3& a, const Vec3& b, int depth) {
       const Vec3 m = 0.5 * (a + b);
       if (depth < 64 && present(m)) {
@@ -1926,16 +1957,15 @@ std::vector<double> surface_over_projected_leaves(const Tessellation& mesh, cons
     double worst = 0.0;
     for (const auto& leaf : leaves) {
       chain.clear();
-      chain.push_back(leaf[0]);
       walk(leaf[0], leaf[1], 0);
       walk(leaf[1], leaf[2], 0);
-      walk(leaf[2], leaf[0], 0);
-      chain.pop_back();  // leaf[0] again
-      ChainPoint c0, c1, c2;
-      const Vec2 p0 = projection(chain[0], c0);
-      for (size_t k = 1; k + 1 < chain.size(); ++k) {
-        const Vec2 q[3] = {p0, projection(chain[k], c1), projection(chain[k + 1], c2)};
-        const Vec3 X[3] = {c0.X, c1.X, c2.X};
+      walk(leaf[2], leaf[0], 0);  // ends with leaf[0]
+      const auto& first = point(chain.back());
+      for (size_t k = 0; k + 2 < chain.size(); ++k) {
+        const auto& c1 = point(chain[k]);
+        const auto& c2 = point(chain[k + 1]);
+        const Vec2 q[3] = {first.second, c1.second, c2.second};
+        const Vec3 X[3] = {first.first.X, c1.first.X, c2.first.X};
         worst = std::max(worst, composed_bound(P, q, X, s));
       }
     }
@@ -2060,13 +2090,15 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
   report.rounding = worst_triangle_rounding(mesh, pd, report.triangle_upper);
   if (options.in_domain) {
     report.coverage_note = "restricted domain: the caller checks that the triangles cover it";
-    report.surface_to_mesh_over_triangles = upper.s2m;
   } else {
     report.coverage_ok = check_coverage(model, mesh, holes, report.coverage_note);
   }
   report.holes = holes.size();
-  if (report.coverage_ok && holes.empty() && upper.s2m > options.target_ratio * upper.m2s) {
-    // The tiling by projected leaves, where the corner-matched bound sets the interval's upper end.
+  // The tiling by projected leaves covers what the (u, v) triangles cover: each patch whole (the
+  // coverage check), or the triangles' union on an untrimmed face cut along its patch grid (the
+  // caller proves that it covers the face). Tried where the corner-matched bound sets the upper end.
+  const bool tiles = holes.empty() && (options.in_domain ? options.domain_contains_patches : report.coverage_ok);
+  if (tiles && upper.s2m > options.target_ratio * upper.m2s) {
     const std::vector<double> over = surface_over_projected_leaves(mesh, pd, results);
     if (!over.empty()) {
       const double s2m = *std::max_element(over.begin(), over.end());
@@ -2076,6 +2108,7 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
       }
     }
   }
+  if (options.in_domain) report.surface_to_mesh_over_triangles = upper.s2m;
   report.mesh_to_surface.upper = upper.m2s;
   report.mesh_to_surface.certified = true;
   report.surface_to_mesh.upper = report.coverage_ok ? upper.s2m : kInf;
