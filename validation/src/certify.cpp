@@ -1852,22 +1852,26 @@ std::vector<double> surface_over_projected_leaves(const std::vector<Tile>& tiles
     const auto& q = tile.uv;
     if ((q[1].x - q[0].x) * (q[2].y - q[0].y) - (q[2].x - q[0].x) * (q[1].y - q[0].y) < 0.0) return {};
   }
-  // The mesh's edges, by how many triangles have them.
-  std::unordered_map<EdgeKey, int, EdgeKeyHash> edges;
+  // The mesh's edges: how many triangles have them, and the sum of their directions (+1 from the
+  // key's first end to its second, -1 the other way). An edge of two triangles must be crossed in
+  // opposite directions (the triangles lie on its two sides), so that the two chains cancel.
+  std::unordered_map<EdgeKey, std::pair<int, int>, EdgeKeyHash> edges;
   for (size_t t = 0; t < count; ++t) {
     const auto& T = tiles[t].X;
     const auto& uv = tiles[t].uv;
     for (size_t i = 0; i < 3; ++i) {
       const size_t j = (i + 1) % 3;
-      ++edges[edge_key(tiles[t].patch, uv[i], T[i], uv[j], T[j])];
+      auto& [n, direction] = edges[edge_key(tiles[t].patch, uv[i], T[i], uv[j], T[j])];
+      ++n;
+      direction += lexicographic_less(uv[i], T[i], uv[j], T[j]) ? 1 : -1;
     }
   }
   // The ends of the boundary edges (one triangle): they keep their own (u, v), and the edges' inner
   // points move along the edge only, so the fans' outer boundary is the triangles' own.
   std::unordered_map<EdgeKey, int, EdgeKeyHash> boundary_ends;  // keyed as the edge (end, end)
-  for (const auto& [key, n] : edges) {
-    if (n > 2) return {};
-    if (n != 1) continue;
+  for (const auto& [key, edge] : edges) {
+    if (edge.first > 2 || (edge.first == 2 && edge.second != 0)) return {};
+    if (edge.first != 1) continue;
     for (int e = 0; e < 2; ++e) {
       const double* c = key.ends.data() + 5 * e;
       const Vec2 q(c[0], c[1]);
@@ -1937,7 +1941,7 @@ std::vector<double> surface_over_projected_leaves(const std::vector<Tile>& tiles
       EdgeKey key;
       double param = 0.0;
       if (on_edge(t, b, key, param)) {
-        if (edges.at(key) != 1) return P.project(c.X, c.q);
+        if (edges.at(key).first != 1) return P.project(c.X, c.q);
         return P.project_on_segment(c.X, Vec2(key.ends[0], key.ends[1]), Vec2(key.ends[5], key.ends[6]), param);
       }
       if (b.x == 1.0 || b.y == 1.0 || b.z == 1.0) {  // a vertex
