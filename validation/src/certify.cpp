@@ -389,6 +389,27 @@ SAGITTA_BOUND_CLONES double composed_bound(const PatchData& P, const Vec2 q[3], 
   return bound >= 0.0 ? bound : kInf;  // NaN (an overflow on the way) proves nothing
 }
 
+// The first of the points candidate(1), candidate(1/2), ... candidate(2^-19) that is closer to x
+// than `best`: best, q and e take its distance, parameters and evaluation, and its scale is
+// returned; 0 when none is closer (they keep theirs).
+template <class Candidate>
+double closer_by_halving(const BezierPatch& patch, const Vec3& x, Candidate candidate, double& best, Vec2& q,
+                         SurfacePointEval& e) {
+  for (int half = 0; half < 20; ++half) {
+    const double scale = std::ldexp(1.0, -half);
+    const Vec2 next = candidate(scale);
+    const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
+    const double d = norm(x - ne.position);
+    if (d < best) {
+      best = d;
+      q = next;
+      e = ne;
+      return scale;
+    }
+  }
+  return 0.0;
+}
+
 // Damped Gauss-Newton projection of x onto the patch, seeded at q, clamped to the domain; a step is
 // accepted only when it brings the point closer (halved otherwise), so the result is never worse
 // than the seed (beyond rounding, in the final steps below). Any result is acceptable to the
@@ -434,19 +455,10 @@ Vec2 project_shifted(const BezierPatch& patch, const Vec3& x, Vec2 q) {
       e = ne;
       continue;
     }
-    bool moved = false;
-    for (int half = 0; half < 20 && !moved; ++half, step *= 0.5) {
-      const Vec2 next = glm::clamp(q + step, Vec2(0.0), Vec2(1.0));
-      const SurfacePointEval ne = evaluate_with_derivatives(patch, next.x, next.y);
-      const double d = norm(x - ne.position);
-      if (d < best) {
-        best = d;
-        q = next;
-        e = ne;
-        moved = true;
-      }
-    }
-    if (!moved || norm(step) < 1e-15) break;
+    const Vec2 from = q;
+    const double scale = closer_by_halving(
+        patch, x, [&](double s) { return glm::clamp(from + s * step, Vec2(0.0), Vec2(1.0)); }, best, q, e);
+    if (scale == 0.0 || norm(0.5 * scale * step) < 1e-15) break;
   }
   return q;
 }
@@ -470,22 +482,12 @@ Vec2 PatchData::project_on_segment(const Vec3& x, Vec2 a, Vec2 b, double t) cons
     const double tt = glm::dot(tangent, tangent);
     if (!(tt > 1e-300)) break;
     const double g = glm::dot(tangent, y - e.position);
-    double step = g / tt;
-    bool moved = false;
-    for (int half = 0; half < 20 && !moved; ++half, step *= 0.5) {
-      const double next_t = std::clamp(t + step, 0.0, 1.0);
-      const Vec2 next = at(next_t);
-      const SurfacePointEval ne = evaluate_with_derivatives(shifted, next.x, next.y);
-      const double dist = norm(y - ne.position);
-      if (dist < best) {
-        best = dist;
-        t = next_t;
-        q = next;
-        e = ne;
-        moved = true;
-      }
-    }
-    if (!moved || std::abs(step) < 1e-15) break;
+    const double step = g / tt;
+    const double scale = closer_by_halving(
+        shifted, y, [&](double s) { return at(std::clamp(t + s * step, 0.0, 1.0)); }, best, q, e);
+    if (scale == 0.0) break;
+    t = std::clamp(t + scale * step, 0.0, 1.0);
+    if (std::abs(0.5 * scale * step) < 1e-15) break;
   }
   return q;
 }
