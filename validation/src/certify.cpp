@@ -1776,10 +1776,11 @@ std::vector<uint32_t> triangles_near_queries(const Tessellation& mesh, const std
 // triangle (p_0, p_k, p_k+1) carries the composed bound of S over it against the flat triangle
 // (X_0, X_k, X_k+1), which lies on the mesh. A point shared by several leaves (or two mesh
 // triangles) is computed from canonical data, so it projects to the same p in all; the fans' edges
-// then cancel in pairs except along the patch's sides, where points project along the side only.
-// So the fans' boundaries add up to the square's boundary, every point of [0, 1]^2 has winding
-// number 1 around them, lies in some fan triangle, and its surface point is within that triangle's
-// bound of the mesh. The bound is the largest over the fans (no per-triangle coverage is needed).
+// then cancel in pairs except along the edges of one triangle (the union's boundary), whose ends
+// keep their (u, v) and whose inner points move along the edge only. So the fans' boundaries add
+// up to the union's boundary moved along itself: every point of the (u, v) triangles' union (off
+// that boundary) has a nonzero winding number around them, lies in some fan triangle, and its
+// surface point is within that triangle's bound of the mesh. The bound is the largest over the fans.
 
 // A point of a triangle at exact barycentric b, with (u, v) and position computed from canonical
 // data: a mesh vertex's own, a point of a mesh edge from the edge's endpoints in a fixed order.
