@@ -1,7 +1,11 @@
 #include "commands.hpp"
+#include "progress.hpp"
 #include "schemes.hpp"
 
 #include "sagitta/app/part.hpp"
+#include "sagitta/app/validate.hpp"
+#include "sagitta/budget.hpp"
+#include "sagitta/certify.hpp"
 #include "sagitta/io/mesh_io.hpp"
 #include "sagitta/io/model_io.hpp"
 #include "sagitta/occt/cad.hpp"
@@ -21,10 +25,46 @@ struct TessellateOptions {
   double edge_tolerance = 0.0;
   std::string out;
   std::string stats;
+  bool certify = false;
 };
+
+// The certificate's headline under the tessellation's line: the certified Hausdorff interval and
+// its cost against the tessellation's, or why it is not certified.
+void print_certificate(const DistanceReport& distance, double tessellation_seconds) {
+  if (distance.hausdorff.certified) {
+    std::cout << "certified: hausdorff in [" << distance.hausdorff.lower << ", " << distance.hausdorff.upper << "]";
+  } else {
+    std::cout << "not certified: hausdorff >= " << distance.hausdorff.lower << " ("
+              << (distance.not_certified_reason.empty() ? distance.coverage_note : distance.not_certified_reason)
+              << ")";
+  }
+  std::cout << " in " << distance.seconds << " s";
+  if (tessellation_seconds > 0.0) std::cout << " (" << distance.seconds / tessellation_seconds << "x the tessellation)";
+  std::cout << "\n";
+}
+
+// The certificate of a patch model's mesh in the --stats JSON.
+nlohmann::json certificate_json(const DistanceReport& distance, double tessellation_seconds) {
+  nlohmann::json j;
+  j["certified"] = distance.hausdorff.certified;
+  j["hausdorff"] = interval_json(distance.hausdorff);
+  j["mesh_to_surface"] = interval_json(distance.mesh_to_surface);
+  j["surface_to_mesh"] = interval_json(distance.surface_to_mesh);
+  j["not_certified_reason"] =
+      distance.hausdorff.certified
+          ? std::string()
+          : (distance.not_certified_reason.empty() ? distance.coverage_note : distance.not_certified_reason);
+  j["seconds"] = distance.seconds;
+  if (tessellation_seconds > 0.0) j["certificate_to_tessellation_ratio"] = distance.seconds / tessellation_seconds;
+  return j;
+}
 
 // A mesh input (.obj, .ply, .stl): refined by the pn scheme, no patch model involved.
 void run_tessellate_mesh(const TessellateOptions& o) {
+  if (o.certify) {
+    throw InputError(o.input +
+                     ": --certify needs the exact surfaces (a patch model or a CAD part); a mesh input has none");
+  }
   const Tessellation input = io::read_mesh(o.input);
   nlohmann::json stats;
   stats["input"] = o.input;
@@ -71,6 +111,13 @@ void run_tessellate_part(const TessellateOptions& o) {
   for (const app::SolidVolume& s : check.volumes) closed += s.mesh_closed ? 1 : 0;
   stats["closed_solids"] = check.volumes.size();
   stats["closed_solid_meshes"] = closed;
+  app::PartCertificate cert;
+  if (o.certify) {
+    const ProgressTicker progress("sagitta tessellate:", "certifying every face of " + o.input);
+    cert = app::certify_part(part, CertifyOptions{});
+    stats["certificate"] = app::part_certificate_json(part, cert);
+    stats["certified"] = cert.all_certified;
+  }
   if (!o.out.empty()) {
     io::write_mesh(part.mesh, o.out);
     stats["output"] = o.out;
@@ -80,6 +127,15 @@ void run_tessellate_part(const TessellateOptions& o) {
             << part.faces_skipped << " skipped, " << part.mesh.triangles.size() << " triangles, "
             << part.mesh.positions.size() << " vertices, closed solids closed " << closed << "/" << check.volumes.size()
             << ", cracks " << check.crack_edges << ", in " << part.seconds << " s\n";
+  if (!o.certify) return;
+  if (cert.all_certified) {
+    std::cout << "certified: hausdorff in [" << cert.distance.hausdorff.lower << ", " << cert.distance.hausdorff.upper
+              << "] on all " << part.faces.size() << " faces";
+  } else {
+    std::cout << "not certified: " << cert.faces_certified << " of " << part.faces.size()
+              << " faces certified; largest lower bound " << cert.distance.hausdorff.lower << " (reasons in --stats)";
+  }
+  std::cout << " in " << cert.seconds << " s\n";
 }
 
 void run_tessellate(const TessellateOptions& o) {
@@ -110,11 +166,26 @@ void run_tessellate(const TessellateOptions& o) {
   stats["input"] = o.input.empty() ? "default" : o.input;
   stats["copies"] = o.copies;
   stats["patches"] = model.patches.size();
-  spec.surface_data = false;
+  // The certificate needs each triangle's patch and (u, v); they are left out otherwise.
+  spec.surface_data = o.certify;
   SchemeStats scheme_stats;
   const Stopwatch clock;
   const Tessellation mesh = tessellate(model, topology, spec, &scheme_stats);
-  stats["seconds"] = clock.seconds();
+  const double seconds = clock.seconds();
+  stats["seconds"] = seconds;
+  DistanceReport distance;
+  if (o.certify) {
+    budget::check_memory(app::validation_bytes(double(mesh.triangles.size())),
+                         "certifying " + std::to_string(mesh.triangles.size()) + " triangles",
+                         "lower --level or raise --max-memory");
+    // Our schemes' meshes carry (patch, u, v); one that does not would be certified against a
+    // reference tessellation, as `sagitta validate --mesh` does.
+    const ProgressTicker progress("sagitta tessellate:",
+                                  "certifying " + std::to_string(mesh.triangles.size()) + " triangles");
+    distance = mesh.has_surface() ? certify_distance(model, mesh) : certify_external(model, mesh);
+    stats["certificate"] = certificate_json(distance, seconds);
+    stats["certificate"]["method"] = mesh.has_surface() ? "bernstein" : "reference";
+  }
   stats.update(scheme_stats_json(scheme_stats));
   stats["vertices"] = mesh.positions.size();
   stats["triangles"] = mesh.triangles.size();
@@ -128,6 +199,7 @@ void run_tessellate(const TessellateOptions& o) {
   std::cout << stats["scheme"].get<std::string>() << ": " << model.patches.size() << " patches -> "
             << mesh.triangles.size() << " triangles (" << mesh.degenerate_triangles << " degenerate not emitted), "
             << mesh.positions.size() << " vertices in " << stats["seconds"].get<double>() << " s\n";
+  if (o.certify) print_certificate(distance, seconds);
   if (!cad.is_null()) {
     std::cout << "faces: " << cad["faces"] << " (" << cad["faces_tessellated"] << " tessellated, " << cad["faces_trimmed"]
               << " trimmed, " << cad["faces_skipped"] << " skipped; listed in --stats)\n";
@@ -153,6 +225,9 @@ Command register_tessellate(CLI::App& app) {
                   "scheme's density only)");
   cmd->add_option("--out", o->out, "Mesh output: .obj, .ply (binary) or .stl (binary); written atomically");
   cmd->add_option("--stats", o->stats, "Statistics JSON: scheme, patches, vertices, triangles, degenerate_triangles, seconds");
+  cmd->add_flag("--certify", o->certify,
+                "Also certify the mesh: the Hausdorff interval to the exact surfaces (every face of a CAD part) on the "
+                "console and under 'certificate' in --stats; the checks of 'sagitta validate' are not run");
   return {cmd, [o] { run_tessellate(*o); }};
 }
 

@@ -36,6 +36,13 @@ done
 p=${parts[0]}
 "$SAGITTA" tessellate "$p" --level 2 --out "$tmp/m.obj" --stats "$tmp/s.json" >/dev/null
 [[ $(obj_faces "$tmp/m.obj") == $(field "$tmp/s.json" "d['triangles']") ]] || fail "OBJ faces != JSON triangles"
+# tessellate --certify: a second line with the certificate, the same whole-part interval as validate's
+# on the same mesh.
+out=$("$SAGITTA" tessellate "$p" --level 2 --certify --stats "$tmp/sc.json") || fail "tessellate --certify exit $?"
+[[ $out == *$'\n'"certified: hausdorff in ["*"faces in "* ]] || fail "tessellate --certify: headline '$out'"
+"$SAGITTA" validate "$p" --level 2 --json "$tmp/vc.json" >/dev/null || fail "validate exit $?"
+[[ $(python3 -c "import json; a=json.load(open('$tmp/sc.json')); b=json.load(open('$tmp/vc.json')); print(a['certified'] and all(a['certificate']['hausdorff'][k] == b['certificate']['hausdorff'][k] for k in ('lower', 'upper')) and len(a['certificate']['faces']) == a['faces'])") == True ]] \
+  || fail "tessellate --certify: interval differs from validate's"
 
 if [[ -n "${FIXTURES:-}" && -f "$FIXTURES/facts.json" ]]; then
   # A closed solid with trimmed faces: watertight, closed, volume near FreeCAD's, certified on every

@@ -18,6 +18,14 @@ if [ -f "$SHARED_DATA/teapot.bpt" ]; then
   check "obj written" "grep -c '^f ' $tmp/t.obj | grep -qx 4032"
   check "100 teacups copies" "$SAGITTA tessellate $SHARED_DATA/teacup.bpt --copies 100 --segments 15 --stats $tmp/c.json >/dev/null && [ \$(json $tmp/c.json 'd[\"patches\"]') = 2600 ]"
   check "esc per-edge levels: fewer triangles than the paper's test, still certified and crack-free" "$SAGITTA validate $SHARED_DATA/teacup.bpt --scheme esc --level 3 --threshold 0.011941 --json $tmp/ep.json >/dev/null && $SAGITTA validate $SHARED_DATA/teacup.bpt --scheme esc --level 3 --threshold 0.011941 --per-edge-levels --json $tmp/ee.json >/dev/null && [ \$(python3 -c \"import json; a=json.load(open('$tmp/ep.json')); b=json.load(open('$tmp/ee.json')); print(b['triangles'] < a['triangles'] and b['tessellation']['per_edge_levels'] and b['topology']['crack_edges'] == 0 and b['hausdorff']['upper'] / b['hausdorff']['lower'] <= 1.1)\") = True ]"
+  # --certify: the same interval as `sagitta validate` on the same mesh (the certificate is a pure
+  # function of the model and the mesh), for the grid scheme and ESC; pn too (its triangles carry the
+  # base grid's (patch, u, v)).
+  for s in "uniform --level 3" "esc --level 3 --threshold 0.011941"; do
+    check "tessellate --certify ($s) = validate" "$SAGITTA tessellate $SHARED_DATA/teacup.bpt --scheme $s --certify --stats $tmp/tc.json >$tmp/tc.log && $SAGITTA validate $SHARED_DATA/teacup.bpt --scheme $s --json $tmp/vc.json >/dev/null && grep -q '^certified: hausdorff in' $tmp/tc.log && [ \$(python3 -c \"import json; a=json.load(open('$tmp/tc.json'))['certificate']; b=json.load(open('$tmp/vc.json')); print(a['certified'] and a['method'] == 'bernstein' and a['hausdorff']['lower'] == b['hausdorff']['lower'] and a['hausdorff']['upper'] == b['hausdorff']['upper'] and 0 < a['hausdorff']['lower'] <= a['hausdorff']['upper'])\") = True ]"
+  done
+  check "tessellate --certify, pn" "$SAGITTA tessellate $SHARED_DATA/teaspoon.bpt --scheme pn --base-level 2 --level 2 --certify --stats $tmp/tp.json >/dev/null && [ \$(json $tmp/tp.json 'd[\"certificate\"][\"certified\"] and 0 < d[\"certificate\"][\"hausdorff\"][\"lower\"] <= d[\"certificate\"][\"hausdorff\"][\"upper\"]') = True ]"
+  check "tessellate without --certify has no certificate" "[ \$(json $tmp/t.json '\"certificate\" in d') = False ]"
   cp "$SHARED_DATA/teapot.bpt" "$tmp/in.bpt"
   check "refuses to overwrite its input" "! $SAGITTA tessellate $tmp/in.bpt --level 1 --out $tmp/in.bpt 2>$tmp/err && grep -q 'refusing to overwrite the input' $tmp/err && cmp -s $tmp/in.bpt $SHARED_DATA/teapot.bpt"
 else
