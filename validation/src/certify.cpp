@@ -18,9 +18,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <numeric>
 #include <tuple>
 #include <type_traits>
@@ -66,6 +69,26 @@ struct MaxNorm {
   double value() const { return std::max(other, std::sqrt(squares)); }
 };
 double norm(const Vec2& v) { return glm::length(v); }
+
+// A homogeneous point in one vector (GCC/Clang vector extension) for composed_bound's blossoms:
+// one register in its AVX2 clone, two in the default one. Its operations are per component, the
+// same as on H (no multiply-add is fused: the targets used do not enable FMA), so the values are
+// bit for bit those of the scalar code. Only there: in code compiled for SSE2 alone, the
+// evaluations with V4 ran slower than the scalar loops (GCC's lowering of 32-byte vectors).
+// (Always inlined, so no V4 crosses a call: GCC's note that AVX vectors change the ABI is moot.)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"
+typedef double V4 __attribute__((vector_size(32)));
+[[gnu::always_inline]] inline V4 load(const H& h) {
+  V4 v;
+  std::memcpy(&v, h.data(), sizeof v);
+  return v;
+}
+[[gnu::always_inline]] inline H store(const V4& v) {
+  H h;
+  std::memcpy(h.data(), &v, sizeof v);
+  return h;
+}
 
 [[gnu::always_inline]] inline H lerp(const H& a, const H& b, double t) {
   const double s = 1.0 - t;
@@ -175,32 +198,14 @@ const BinomialTable& binomials() {
   return table;
 }
 
-// Scratch space reused across triangles by one thread.
-struct Scratch {
-  int n = -1, m = -1;
+// The index tables of the composition for patch degrees (n, m): built once per degree pair for
+// the whole process (read-only afterwards, shared by all threads).
+struct DegreeTables {
   Triples tu, tv, tn, tn1;  // degrees n, m, n + m, n + m + 1
-  std::vector<H> qa;   // per u-triple: m + 1 points
-  std::vector<H> r;    // per (u-triple, v-triple): the blossom value
-  std::vector<H> coef; // per degree-(n + m) triple
-  // Per degree-(n + m) triple: the blossom values (indices into r) and Vandermonde weights it sums.
+  // Per degree-(n + m) triple: the blossom values (indices into Scratch::r) and Vandermonde weights
+  // it sums.
   std::vector<std::vector<std::pair<size_t, double>>> terms;
-  // coef holds the composition of `coef_patch` with the (u, v) triangle coef_q (wmin_poly its
-  // smallest weight coefficient): a repeated composed_bound over the same (u, v) reuses it.
-  const PatchData* coef_patch = nullptr;
-  Vec2 coef_q[3];
-  double coef_wmin = 0.0;
-  void prepare(int n_, int m_) {
-    if (n == n_ && m == m_) return;
-    n = n_;
-    m = m_;
-    tu = Triples(n);
-    tv = Triples(m);
-    tn = Triples(n + m);
-    tn1 = Triples(n + m + 1);
-    qa.assign(tu.list.size() * static_cast<size_t>(m + 1), H{});
-    r.assign(tu.list.size() * tv.list.size(), H{});
-    coef.assign(tn.list.size(), H{});
-    coef_patch = nullptr;
+  DegreeTables(int n, int m) : tu(n), tv(m), tn(n + m), tn1(n + m + 1) {
     const BinomialTable& binomial = binomials();
     const double inv_total = 1.0 / binomial(n + m, n);
     terms.assign(tn.list.size(), {});
@@ -219,10 +224,45 @@ struct Scratch {
   }
 };
 
+const DegreeTables& degree_tables(int n, int m) {
+  static std::mutex mutex;
+  static std::array<std::unique_ptr<DegreeTables>, (kMaxDegree + 1) * (kMaxDegree + 1)> tables;
+  const std::lock_guard<std::mutex> lock(mutex);
+  auto& t = tables[static_cast<size_t>(n * (kMaxDegree + 1) + m)];
+  if (!t) t = std::make_unique<DegreeTables>(n, m);
+  return *t;
+}
+
+// Scratch space reused across triangles by one thread.
+struct Scratch {
+  int n = -1, m = -1;
+  const DegreeTables* t = nullptr;  // of degrees (n, m)
+  std::vector<H> qa;                // per u-triple: m + 1 points
+  std::vector<H> r;                 // per (u-triple, v-triple): the blossom value
+  std::vector<H> coef;              // per degree-(n + m) triple
+  // coef holds the composition of `coef_patch` with the (u, v) triangle coef_q (wmin_poly its
+  // smallest weight coefficient): a repeated composed_bound over the same (u, v) reuses it.
+  const PatchData* coef_patch = nullptr;
+  Vec2 coef_q[3];
+  double coef_wmin = 0.0;
+  void prepare(int n_, int m_) {
+    if (n == n_ && m == m_) return;
+    n = n_;
+    m = m_;
+    t = &degree_tables(n, m);
+    qa.assign(t->tu.list.size() * static_cast<size_t>(m + 1), H{});
+    r.assign(t->tu.list.size() * t->tv.list.size(), H{});
+    coef.assign(t->tn.list.size(), H{});
+    coef_patch = nullptr;
+  }
+};
+
 // One de Casteljau level with argument t from points src[0 .. count] into dst[0 .. count - 1]
-// (dst may be src).
-[[gnu::always_inline]] inline void casteljau_level(const H* src, H* dst, int count, double t) {
-  for (int i = 0; i < count; ++i) dst[i] = lerp(src[i], src[i + 1], t);
+// (dst may be src): lerp's operations on V4 registers.
+[[gnu::always_inline]] inline void casteljau_level(const V4* src, V4* dst, int count, double t) {
+  const double s = 1.0 - t;
+  const V4 sv = {s, s, s, s}, tv = {t, t, t, t};
+  for (int i = 0; i < count; ++i) dst[i] = sv * src[i] + tv * src[i + 1];
 }
 
 // The blossom of the degree-d points `pts` at every argument list x0^a0 x1^a1 x2^(d - a0 - a1), in
@@ -230,17 +270,18 @@ struct Scratch {
 // de Casteljau evaluation with the arguments in that order; the levels of a shared prefix (x0^a0,
 // then x0^a0 x1^a1) are computed once, so every value is bit for bit the plain evaluation's.
 [[gnu::always_inline]] inline void blossom_all_any(const H* pts, int d, const double x[3], H* out, size_t stride) {
-  H w0[kMaxDegree + 1], w1[kMaxDegree + 1], w2[kMaxDegree + 1];
+  V4 p[kMaxDegree + 1], w0[kMaxDegree + 1], w1[kMaxDegree + 1], w2[kMaxDegree + 1];
+  for (int i = 0; i <= d; ++i) p[i] = load(pts[i]);
   size_t k = 0;
-  const H* prefix0 = pts;  // after x0^a0
+  const V4* prefix0 = p;  // after x0^a0
   for (int a0 = 0; a0 <= d; ++a0) {
     if (a0 > 0) casteljau_level(prefix0, w0, d + 1 - a0, x[0]), prefix0 = w0;
-    const H* prefix1 = prefix0;  // after x0^a0 x1^a1
+    const V4* prefix1 = prefix0;  // after x0^a0 x1^a1
     for (int a1 = 0; a0 + a1 <= d; ++a1) {
       if (a1 > 0) casteljau_level(prefix1, w1, d + 1 - a0 - a1, x[1]), prefix1 = w1;
-      const H* tail = prefix1;
+      const V4* tail = prefix1;
       for (int level = a0 + a1 + 1; level <= d; ++level) casteljau_level(tail, w2, d + 1 - level, x[2]), tail = w2;
-      out[stride * k++] = tail[0];
+      out[stride * k++] = store(tail[0]);
     }
   }
 }
@@ -249,30 +290,37 @@ struct Scratch {
 // local arrays that the compiler unrolls and keeps in registers.
 template <int D>
 [[gnu::always_inline]] inline void blossom_all_fixed(const H* pts, const double x[3], H* out, size_t stride) {
-  std::array<H, D + 1> p0;
+  const double s0 = 1.0 - x[0], s1 = 1.0 - x[1], s2 = 1.0 - x[2], t0 = x[0], t1 = x[1], t2 = x[2];
+  const V4 sv[3] = {{s0, s0, s0, s0}, {s1, s1, s1, s1}, {s2, s2, s2, s2}};
+  const V4 tv[3] = {{t0, t0, t0, t0}, {t1, t1, t1, t1}, {t2, t2, t2, t2}};
+  V4 p0[D + 1];
 #pragma GCC unroll 8
-  for (int i = 0; i <= D; ++i) p0[i] = pts[i];
+  for (int i = 0; i <= D; ++i) p0[i] = load(pts[i]);
   size_t k = 0;
 #pragma GCC unroll 8
   for (int a0 = 0; a0 <= D; ++a0) {
     if (a0 > 0) {
 #pragma GCC unroll 8
-      for (int i = 0; i < D + 1 - a0; ++i) p0[i] = lerp(p0[i], p0[i + 1], x[0]);
+      for (int i = 0; i < D + 1 - a0; ++i) p0[i] = sv[0] * p0[i] + tv[0] * p0[i + 1];
     }
-    std::array<H, D + 1> p1 = p0;
+    V4 p1[D + 1];
+#pragma GCC unroll 8
+    for (int i = 0; i <= D; ++i) p1[i] = p0[i];
 #pragma GCC unroll 8
     for (int a1 = 0; a0 + a1 <= D; ++a1) {
       if (a1 > 0) {
 #pragma GCC unroll 8
-        for (int i = 0; i < D + 1 - a0 - a1; ++i) p1[i] = lerp(p1[i], p1[i + 1], x[1]);
+        for (int i = 0; i < D + 1 - a0 - a1; ++i) p1[i] = sv[1] * p1[i] + tv[1] * p1[i + 1];
       }
-      std::array<H, D + 1> p2 = p1;
+      V4 p2[D + 1];
+#pragma GCC unroll 8
+      for (int i = 0; i <= D; ++i) p2[i] = p1[i];
 #pragma GCC unroll 8
       for (int level = a0 + a1 + 1; level <= D; ++level) {
 #pragma GCC unroll 8
-        for (int i = 0; i < D + 1 - level; ++i) p2[i] = lerp(p2[i], p2[i + 1], x[2]);
+        for (int i = 0; i < D + 1 - level; ++i) p2[i] = sv[2] * p2[i] + tv[2] * p2[i + 1];
       }
-      out[stride * k++] = p2[0];
+      out[stride * k++] = store(p2[0]);
     }
   }
 }
@@ -294,7 +342,7 @@ template <int D>
 // v-triple), into s.r.
 [[gnu::always_inline]] inline void blossom(const PatchData& P, const Vec2 q[3], Scratch& s) {
   const int n = P.n, m = P.m;
-  const size_t nu = s.tu.list.size(), nv = s.tv.list.size();
+  const size_t nu = s.t->tu.list.size(), nv = s.t->tv.list.size();
   const double xu[3] = {q[0].x, q[1].x, q[2].x}, xv[3] = {q[0].y, q[1].y, q[2].y};
   H column[kMaxDegree + 1];
   for (int j = 0; j <= m; ++j) {
@@ -308,17 +356,18 @@ template <int D>
 // smallest weight coefficient.
 [[gnu::always_inline]] inline double triangular_coefficients(Scratch& s) {
   double wmin_poly = kInf;
-  for (size_t g = 0; g < s.tn.list.size(); ++g) {
-    H acc{0, 0, 0, 0};
-    for (const auto& [index, wgt] : s.terms[g]) {
-      const H& v = s.r[index];
-      for (int c = 0; c < 4; ++c) acc[c] += wgt * v[c];
+  for (size_t g = 0; g < s.t->tn.list.size(); ++g) {
+    V4 acc = {0, 0, 0, 0};
+    for (const auto& [index, wgt] : s.t->terms[g]) {
+      const V4 w = {wgt, wgt, wgt, wgt};
+      acc += w * load(s.r[index]);
     }
-    s.coef[g] = acc;
+    s.coef[g] = store(acc);
     wmin_poly = std::min(wmin_poly, acc[3]);
   }
   return wmin_poly;
 }
+#pragma GCC diagnostic pop
 
 // The core bound: Bernstein coefficients of S(sum b_i q_i) - sum b_i X_i over the triangle by
 // blossoming. The tensor-product blossom with i copies of corner 0, j of corner 1 and k of corner 2
@@ -353,8 +402,8 @@ SAGITTA_BOUND_CLONES double composed_bound(const PatchData& P, const Vec2 q[3], 
   double emax = 0.0;
   if (!P.patch->rational()) {
     // e_ijk = c_ijk - (i X0 + j X1 + k X2) / N  (the affine part degree-elevated to N, exactly).
-    for (size_t g = 0; g < s.tn.list.size(); ++g) {
-      const auto& al = s.tn.list[g];
+    for (size_t g = 0; g < s.t->tn.list.size(); ++g) {
+      const auto& al = s.t->tn.list[g];
       const Vec3 lin = (double(al[0]) * Xl[0] + double(al[1]) * Xl[1] + double(al[2]) * Xl[2]) / double(N);
       const Vec3 e(s.coef[g][0] - lin.x, s.coef[g][1] - lin.y, s.coef[g][2] - lin.z);
       largest.add(e);
@@ -363,8 +412,8 @@ SAGITTA_BOUND_CLONES double composed_bound(const PatchData& P, const Vec2 q[3], 
     wmin_poly = 1.0;
   } else {
     // N(b) - W(b) X(b) has degree N + 1: E_g = sum_l g_l / (N + 1) (Nc_{g - e_l} - Wc_{g - e_l} X_l).
-    const Triples& t1 = s.tn;  // degree N indices
-    const Triples& up = s.tn1;
+    const Triples& t1 = s.t->tn;  // degree N indices
+    const Triples& up = s.t->tn1;
     for (const auto& g : up.list) {
       Vec3 e(0.0);
       for (int l = 0; l < 3; ++l) {
@@ -604,6 +653,16 @@ Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
   return (1.0 - v - w) * a + v * b + w * c;
 }
 
+// Where the estimates sample a triangle (barycentric): its centroid and edge midpoints.
+const Vec3 kEstimatePoints[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
+
+// The projections of a triangle's edge midpoints (kEstimatePoints[1..3]) made by pass 1: the same
+// values that pass 2 computes at those corners of the triangle's leaves, handed over.
+struct MidpointProjections {
+  Vec2 qp[3];
+  double residual[3];
+};
+
 struct TriangleResult {
   double m2s = 0.0, s2m = 0.0;
   double m2s_est = 0.0;  // largest residual |x - S(proj x)| seen (a candidate, not a bound)
@@ -618,6 +677,59 @@ struct TriangleResult {
   std::vector<std::array<Vec3, 3>> kept_leaves;
 };
 
+// The results of every triangle: stored for the triangles that are refined; a settled triangle
+// (cheap bound at most `settled`: no refinement could raise the overall bound through it) keeps
+// its cheap bound over one leaf, and its pass-1 estimate as its candidate, read from those arrays.
+// Storing only the refined ones spares the memory of a result per triangle (teapot level 6: 13,512
+// refined of 261,632).
+class TriangleResults {
+ public:
+  void init(const std::vector<double>& cheap, double settled, const std::vector<double>& est_value,
+            const std::vector<Vec3>& est_point, const std::vector<Vec2>& est_uv) {
+    cheap_ = &cheap;
+    value_ = &est_value;
+    point_ = &est_point;
+    uv_ = &est_uv;
+    slot_.assign(cheap.size(), kSettled);
+    refined_.clear();
+    for (size_t t = 0; t < cheap.size(); ++t) {
+      if (cheap[t] <= settled) continue;
+      slot_[t] = static_cast<uint32_t>(refined_.size());
+      refined_.push_back(static_cast<uint32_t>(t));
+    }
+    stored_.assign(refined_.size(), TriangleResult{});
+  }
+  size_t size() const { return slot_.size(); }
+  const std::vector<uint32_t>& refined() const { return refined_; }  // the refined triangles, in order
+  TriangleResult& stored(size_t k) { return stored_[k]; }            // of refined()[k]
+  bool is_refined(size_t t) const { return slot_[t] != kSettled; }
+  const TriangleResult& at(size_t t) const { return stored_[slot_[t]]; }  // a refined triangle's
+  double m2s(size_t t) const { return is_refined(t) ? at(t).m2s : (*cheap_)[t]; }
+  double s2m(size_t t) const { return is_refined(t) ? at(t).s2m : (*cheap_)[t]; }
+  uint64_t leaves(size_t t) const { return is_refined(t) ? at(t).leaves : 1; }
+  bool exhausted(size_t t) const { return is_refined(t) && at(t).exhausted; }
+  double m2s_est(size_t t) const { return is_refined(t) ? at(t).m2s_est : (*value_)[t]; }
+  double s2m_est(size_t t) const { return is_refined(t) ? at(t).s2m_est : (*value_)[t]; }
+  Vec3 m2s_point(size_t t) const {
+    return is_refined(t) ? at(t).m2s_point : ((*value_)[t] > 0.0 ? (*point_)[t] : Vec3(0.0));
+  }
+  Vec2 s2m_uv(size_t t) const { return is_refined(t) ? at(t).s2m_uv : ((*value_)[t] > 0.0 ? (*uv_)[t] : Vec2(0.0)); }
+  const std::vector<std::array<Vec3, 3>>* kept_leaves(size_t t) const {
+    static const std::vector<std::array<Vec3, 3>> kWhole;
+    return is_refined(t) ? &at(t).kept_leaves : &kWhole;
+  }
+
+ private:
+  static constexpr uint32_t kSettled = ~uint32_t(0);
+  const std::vector<double>* cheap_ = nullptr;
+  const std::vector<double>* value_ = nullptr;
+  const std::vector<Vec3>* point_ = nullptr;
+  const std::vector<Vec2>* uv_ = nullptr;
+  std::vector<uint32_t> slot_;  // by triangle: its index in refined_ / stored_, or kSettled
+  std::vector<uint32_t> refined_;
+  std::vector<TriangleResult> stored_;
+};
+
 struct Leaf {
   std::array<Vec3, 3> b;  // barycentric corners
   int depth = 0;
@@ -629,10 +741,12 @@ struct CornerData {
   bool projected = false;  // qp: the projection onto the own patch seeded at q; residual |X - S(qp)|
   Vec2 qp{0.0};
   double residual = 0.0;
-  bool surfaced = false;   // sp = S(q); near_found / near: the mesh triangle nearest to sp
+  bool surfaced = false;  // sp = S(q)
   Vec3 sp{0.0};
+  bool near_searched = false;  // near_found / near: the mesh triangle nearest to sp
   bool near_found = false;
   std::array<Vec3, 3> near{};
+  double near_distance = 0.0;  // |sp - its closest point on near|
 };
 
 // The corners of one triangle's leaves by barycentric coordinates (exact: dyadic midpoints).
@@ -733,10 +847,11 @@ void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin,
 
 // Surface->mesh: the leaf's surface corners matched to their closest points on the triangle T (or
 // on each of the given mesh triangles; all three corners on the same one, so the affine
-// interpolation stays on the mesh). Lowers b.s2m, sets b.s2m_seen and (unless s2m_only) the
-// candidate in res.
-void bound_surface_to_mesh(const PatchData& P, const LeafCorners& c, const std::array<Vec3, 3>& T, bool s2m_only,
-                           const std::vector<std::array<Vec3, 3>>* s2m_targets,
+// interpolation stays on the mesh). Where that leaves the bound above tau, the mesh triangles
+// nearest to the corners (`nearest`) are tried too. Lowers b.s2m, sets b.s2m_seen and (unless
+// s2m_only) the candidate in res.
+void bound_surface_to_mesh(const PatchData& P, const LeafCorners& c, const std::array<Vec3, 3>& T, double tau,
+                           bool s2m_only, const std::vector<std::array<Vec3, 3>>* s2m_targets,
                            const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest, Scratch& s,
                            LeafBounds& b, TriangleResult& res) {
   const Vec2* q = c.q;
@@ -745,33 +860,49 @@ void bound_surface_to_mesh(const PatchData& P, const LeafCorners& c, const std::
     CornerData& d = *c.data[i];
     if (!d.surfaced) {
       d.sp = eval(*P.patch, q[i]);
-      d.near_found = nearest && nearest(d.sp, d.near);
       d.surfaced = true;
     }
     sp[i] = d.sp;
   }
   std::vector<std::array<Vec3, 3>> targets = s2m_targets ? *s2m_targets : std::vector<std::array<Vec3, 3>>{T};
-  // The mesh triangle nearest to a corner (found by the AABB tree) is a candidate too where it is
-  // closer to that corner than the given targets (a tie, as at a mesh vertex, gains nothing).
-  for (int i = 0; i < 3; ++i) {
-    const CornerData& d = *c.data[i];
-    if (!d.near_found || std::find(targets.begin(), targets.end(), d.near) != targets.end()) continue;
-    double given = kInf;
-    for (const auto& t : targets) given = std::min(given, norm(sp[i] - closest_on_triangle(sp[i], t[0], t[1], t[2])));
-    if (norm(sp[i] - closest_on_triangle(sp[i], d.near[0], d.near[1], d.near[2])) < given) targets.push_back(d.near);
-  }
   double corner_distance[3] = {kInf, kInf, kInf};
-  for (const auto& target : targets) {
+  const auto bound_against = [&](const std::array<Vec3, 3>& target) {
     Vec3 Y[3];
     for (int i = 0; i < 3; ++i) {
       Y[i] = closest_on_triangle(sp[i], target[0], target[1], target[2]);
       corner_distance[i] = std::min(corner_distance[i], norm(sp[i] - Y[i]));
     }
     b.s2m = std::min(b.s2m, composed_bound(P, q, Y, s));
+  };
+  for (const auto& target : targets) bound_against(target);
+  // The mesh triangle nearest to a corner (found by the caller's search, kept per corner) is a
+  // candidate too where it is closer to that corner than the given targets (a tie, as at a mesh
+  // vertex, gains nothing). Only asked where the given targets leave the leaf above tau: below it
+  // the leaf is done either way.
+  const auto search_nearest = [&](CornerData& d) {
+    if (d.near_searched) return;
+    d.near_found = nearest(d.sp, d.near);
+    if (d.near_found) d.near_distance = norm(d.sp - closest_on_triangle(d.sp, d.near[0], d.near[1], d.near[2]));
+    d.near_searched = true;
+  };
+  if (b.s2m > tau && nearest) {
+    const size_t given = targets.size();
+    for (int i = 0; i < 3; ++i) {
+      CornerData& d = *c.data[i];
+      search_nearest(d);
+      if (!d.near_found || std::find(targets.begin(), targets.end(), d.near) != targets.end()) continue;
+      if (d.near_distance < corner_distance[i]) targets.push_back(d.near);
+    }
+    for (size_t k = given; k < targets.size(); ++k) bound_against(targets[k]);
   }
   for (int i = 0; i < 3; ++i) {
+    CornerData& d = *c.data[i];
+    // A candidate for the lower bound at its distance to the nearest mesh triangle (the given
+    // targets alone may overstate it): searched where it would beat the candidate so far.
+    if (!s2m_only && nearest && corner_distance[i] > res.s2m_est) search_nearest(d);
+    if (d.near_found) corner_distance[i] = std::min(corner_distance[i], d.near_distance);
     if (std::isfinite(corner_distance[i])) b.s2m_seen = std::max(b.s2m_seen, corner_distance[i]);
-    if (!s2m_only && corner_distance[i] > res.s2m_est) {  // a candidate for the lower bound
+    if (!s2m_only && corner_distance[i] > res.s2m_est) {
       res.s2m_est = corner_distance[i];
       res.s2m_uv = q[i];
     }
@@ -794,9 +925,18 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
                                const std::vector<std::array<Vec3, 3>>* s2m_targets = nullptr,
                                const std::function<bool(const Vec3&, std::array<Vec3, 3>&)>& nearest = {},
                                const OtherPatches& others = {}, bool own_uv_only = false, double root_bound = kInf,
-                               const BoxInDomain* box_in_domain = nullptr) {
+                               const BoxInDomain* box_in_domain = nullptr,
+                               const MidpointProjections* midpoints = nullptr) {
   TriangleResult res;
   CornerCache corners;
+  if (midpoints) {  // the edge midpoints' projections, as bound_mesh_to_surface would compute them
+    for (int k = 0; k < 3; ++k) {
+      CornerData& d = corners.at(kEstimatePoints[k + 1]);
+      d.projected = true;
+      d.qp = midpoints->qp[k];
+      d.residual = midpoints->residual[k];
+    }
+  }
   struct Evaluated {
     Leaf leaf;
     LeafBounds b;
@@ -829,7 +969,7 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
     b.s2m = e.lin;
     if (e.lin > tau && !s2m_only)
       bound_mesh_to_surface(P, c, e.lin, tau, others, own_uv_only, box_in_domain, s, b, res);
-    if (e.lin > tau) bound_surface_to_mesh(P, c, T, s2m_only, s2m_targets, nearest, s, b, res);
+    if (e.lin > tau) bound_surface_to_mesh(P, c, T, tau, s2m_only, s2m_targets, nearest, s, b, res);
     return e;
   };
   std::vector<Evaluated> heap{evaluate({{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}, 0})};
@@ -1183,14 +1323,14 @@ double detail::certified_distance_lower(const Model& model, const Vec3& x, doubl
 namespace {
 
 // Lower bounds from the worst candidates of each direction.
-void certify_lowers(const Model& model, const Tessellation& mesh, const std::vector<TriangleResult>& results,
+void certify_lowers(const Model& model, const Tessellation& mesh, const TriangleResults& results,
                     const CertifyOptions& options, const detail::MeshDistance& dist, DistanceReport& report) {
   const size_t k = std::min<size_t>(static_cast<size_t>(std::max(options.lower_candidates, 1)), results.size());
   std::vector<size_t> order(results.size());
   std::iota(order.begin(), order.end(), size_t(0));
   // Mesh->surface.
   std::partial_sort(order.begin(), order.begin() + static_cast<long>(k), order.end(),
-                    [&](size_t a, size_t b) { return results[a].m2s_est > results[b].m2s_est; });
+                    [&](size_t a, size_t b) { return results.m2s_est(a) > results.m2s_est(b); });
   std::vector<double> low(k, 0.0);
   // Each candidate's bound is at most its target (0.995 of its estimate), and the targets decrease:
   // candidates are taken a few at a time (one per thread), and once a proven lower bound reaches the
@@ -1199,32 +1339,32 @@ void certify_lowers(const Model& model, const Tessellation& mesh, const std::vec
   for (size_t first = 0; first < k; first += batch) {
     const size_t last = std::min(k, first + batch);
     tbb::parallel_for(first, last, [&](size_t i) {
-      const TriangleResult& r = results[order[i]];
-      const double target = r.m2s_est * 0.995;
+      const size_t t = order[i];
+      const double target = results.m2s_est(t) * 0.995;
       if (target > report.mesh_to_surface.lower)
-        low[i] = detail::certified_distance_lower(model, r.m2s_point, target, options.lower_node_budget);
+        low[i] = detail::certified_distance_lower(model, results.m2s_point(t), target, options.lower_node_budget);
     });
     for (size_t i = first; i < last; ++i) {
       if (low[i] > report.mesh_to_surface.lower) {
         report.mesh_to_surface.lower = low[i];
-        report.mesh_to_surface.witness = results[order[i]].m2s_point;
+        report.mesh_to_surface.witness = results.m2s_point(order[i]);
         report.mesh_to_surface.witness_patch = mesh.triangle_patch.empty() ? -1 : mesh.triangle_patch[order[i]];
       }
     }
   }
   // Surface->mesh: exact surface points (evaluation error bounded below) against the whole mesh.
   std::partial_sort(order.begin(), order.begin() + static_cast<long>(k), order.end(),
-                    [&](size_t a, size_t b) { return results[a].s2m_est > results[b].s2m_est; });
+                    [&](size_t a, size_t b) { return results.s2m_est(a) > results.s2m_est(b); });
   std::vector<Vec3> points(k);
   tbb::parallel_for(size_t(0), k, [&](size_t i) {
     const size_t t = order[i];
     const BezierPatch& patch = model.patches[mesh.triangle_patch[t]];
-    const Vec3 p = eval(patch, results[t].s2m_uv);
+    const Vec3 p = eval(patch, results.s2m_uv(t));
     points[i] = p;
     // No candidate was recorded (an exact triangle: every corner distance 0): s2m_uv is not a point
     // of the triangle, and on a restricted domain not even of the surface.
-    if (!(results[t].s2m_est > 0.0) ||
-        (options.in_domain && !options.in_domain(mesh.triangle_patch[t], results[t].s2m_uv))) {
+    if (!(results.s2m_est(t) > 0.0) ||
+        (options.in_domain && !options.in_domain(mesh.triangle_patch[t], results.s2m_uv(t)))) {
       low[i] = 0.0;  // not a point of the restricted surface: no witness
       return;
     }
@@ -1249,13 +1389,18 @@ std::array<Vec3, 3> triangle_corners(const Tessellation& mesh, size_t t) {
 }
 
 // Per triangle: the largest projection residual seen, where (in space and in (u, v)) it was seen.
-// Where the estimates sample a triangle (barycentric): its centroid and edge midpoints.
-const Vec3 kEstimatePoints[4] = {Vec3(1, 1, 1) / 3.0, Vec3(0.5, 0.5, 0), Vec3(0, 0.5, 0.5), Vec3(0.5, 0, 0.5)};
 
 struct Estimates {
   std::vector<double> value;
   std::vector<Vec3> point;
   std::vector<Vec2> uv;
+  // By triangle: its index in `midpoints`, or kNoMidpoints where pass 1 did not project it.
+  static constexpr uint32_t kNoMidpoints = ~uint32_t(0);
+  std::vector<uint32_t> midpoint_slot;
+  std::vector<MidpointProjections> midpoints;
+  const MidpointProjections* midpoints_of(size_t t) const {
+    return midpoint_slot[t] == kNoMidpoints ? nullptr : &midpoints[midpoint_slot[t]];
+  }
 };
 
 // |S(q) - X| for a mesh point X meant to be S(q), plus the evaluation's rounding (as for the lower
@@ -1371,6 +1516,7 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
   est.value.assign(count, 0.0);
   est.point.resize(count);
   est.uv.resize(count);
+  est.midpoint_slot.assign(count, Estimates::kNoMidpoints);
   visited.assign(count, 0);
   std::vector<size_t> order(count);
   std::iota(order.begin(), order.end(), size_t(0));
@@ -1394,6 +1540,8 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
     size_t end = next;
     while (end < sorted && end - next < batch && cheap[order[end]] > largest) ++end;
     batch = std::min<size_t>(2 * batch, 1024);
+    // The triangle at walk position i keeps its midpoints' projections in slot i.
+    est.midpoints.resize(end);
     tbb::parallel_for(tbb::blocked_range<size_t>(next, end, 16), [&](const tbb::blocked_range<size_t>& range) {
       Scratch s;
       budget::check("validation");
@@ -1406,10 +1554,13 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
         const Vec3 X[3] = {T[0], T[1], T[2]};
         cheap[t] = std::min(cheap[t], composed_bound(P, q, X, s));
         if (!(cheap[t] > largest)) continue;
-        for (const Vec3& b : kEstimatePoints) {
+        MidpointProjections& mid = est.midpoints[i];
+        for (int k = 0; k < 4; ++k) {
+          const Vec3& b = kEstimatePoints[k];
           const Vec3 x = b.x * T[0] + b.y * T[1] + b.z * T[2];
           const Vec2 qp = P.project(x, b.x * uv[0] + b.y * uv[1] + b.z * uv[2]);
           const double e = norm(x - eval(*P.patch, qp));
+          if (k > 0) mid.qp[k - 1] = qp, mid.residual[k - 1] = e;
           if (e >= est.value[t]) {
             est.value[t] = e;
             est.point[t] = x;
@@ -1417,6 +1568,7 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
           }
         }
         visited[t] = 1;
+        est.midpoint_slot[t] = static_cast<uint32_t>(i);
       }
     });
     for (size_t i = next; i < end; ++i) largest = std::max(largest, est.value[order[i]]);
@@ -1566,24 +1718,23 @@ void vertex_rings(const Tessellation& mesh, std::vector<uint32_t>& start, std::v
 // Depth of the first refinement pass (see certify_conditioned).
 constexpr int kFirstPassDepth = 4;
 
-// Pass 2: every triangle refined (only those with redo[t] set when redo is given, the others keep
-// their results); each keeps the larger of its pass-1 estimate and the refinement's as the candidate
+// Pass 2: the triangles whose cheap bound is above rf.settled refined (only those with redo[t] set
+// when redo is given, the others keep their results; without redo `results` is set up first, the
+// others settled); each keeps the larger of its pass-1 estimate and the refinement's as the candidate
 // for the lower bounds.
-void refine_triangles(const Refinement& rf, const Estimates& est, std::vector<TriangleResult>& results,
+void refine_triangles(const Refinement& rf, const Estimates& est, TriangleResults& results,
                       const std::vector<char>* redo = nullptr) {
   const Tessellation& mesh = rf.mesh;
   const CertifyOptions& options = rf.options;
-  const size_t count = mesh.triangles.size();
-  results.resize(count);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 64), [&](const tbb::blocked_range<size_t>& range) {
+  if (!redo) results.init(rf.cheap, rf.settled, est.value, est.point, est.uv);
+  const std::vector<uint32_t>& refined = results.refined();
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, refined.size(), 4), [&](const tbb::blocked_range<size_t>& range) {
     Scratch s;
-    for (size_t t = range.begin(); t != range.end(); ++t) {
+    for (size_t k = range.begin(); k != range.end(); ++k) {
+      const size_t t = refined[k];
       if (redo && !(*redo)[t]) continue;
-      if (rf.cheap[t] <= rf.settled) {
-        results[t] = TriangleResult{};
-        results[t].m2s = results[t].s2m = rf.cheap[t];
-        results[t].leaves = 1;
-      } else {
+      TriangleResult& result = results.stored(k);
+      {
         // With a restricted domain (a face of a part, cut along its patch grid) the triangles are
         // few and large, and a surface point over t may lie nearest to a triangle beyond t's ring
         // (an analytic face's re-parametrised circle over a coarse triangle): the mesh's tree is
@@ -1607,18 +1758,18 @@ void refine_triangles(const Refinement& rf, const Estimates& est, std::vector<Tr
             return options.box_in_domain(patch, lo, hi, inside);
           };
         }
-        results[t] = refine_triangle(
+        result = refine_triangle(
             rf.pd[patch], mesh.triangle_uv[t], triangle_corners(mesh, t), rf.tau, options.target_ratio, rf.max_depth, s,
             false, nullptr, nearest, OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]},
-            options.in_domain && !options.domain_contains_patches, rf.cheap[t], &box_in_domain);
+            options.in_domain && !options.domain_contains_patches, rf.cheap[t], &box_in_domain, est.midpoints_of(t));
       }
-      if (results[t].m2s_est < est.value[t]) {
-        results[t].m2s_est = est.value[t];
-        results[t].m2s_point = est.point[t];
+      if (result.m2s_est < est.value[t]) {
+        result.m2s_est = est.value[t];
+        result.m2s_point = est.point[t];
       }
-      if (results[t].s2m_est < est.value[t]) {
-        results[t].s2m_uv = est.uv[t];
-        results[t].s2m_est = est.value[t];
+      if (result.s2m_est < est.value[t]) {
+        result.s2m_uv = est.uv[t];
+        result.s2m_est = est.value[t];
       }
     }
   });
@@ -1649,7 +1800,7 @@ void refine_holes(const Refinement& rf, const std::vector<Hole>& holes, const st
 struct Uppers {
   double m2s = 0.0, s2m = 0.0;
 };
-Uppers collect_uppers(const std::vector<TriangleResult>& results, const std::vector<TriangleResult>& hole_results,
+Uppers collect_uppers(const TriangleResults& results, const std::vector<TriangleResult>& hole_results,
                       DistanceReport& report) {
   Uppers u;
   for (const TriangleResult& r : hole_results) {
@@ -1658,11 +1809,12 @@ Uppers collect_uppers(const std::vector<TriangleResult>& results, const std::vec
     report.budget_exhausted += r.exhausted ? 1 : 0;
   }
   for (size_t t = 0; t < results.size(); ++t) {
-    u.m2s = std::max(u.m2s, results[t].m2s);
-    u.s2m = std::max(u.s2m, results[t].s2m);
-    report.triangle_upper[t] = std::max(results[t].m2s, results[t].s2m);
-    report.leaves += results[t].leaves;
-    report.budget_exhausted += results[t].exhausted ? 1 : 0;
+    const double m2s = results.m2s(t), s2m = results.s2m(t);
+    u.m2s = std::max(u.m2s, m2s);
+    u.s2m = std::max(u.s2m, s2m);
+    report.triangle_upper[t] = std::max(m2s, s2m);
+    report.leaves += results.leaves(t);
+    report.budget_exhausted += results.exhausted(t) ? 1 : 0;
   }
   return u;
 }
@@ -2007,6 +2159,7 @@ void set_hausdorff(DistanceReport& report) {
 // detail::with_safe_arithmetic, conditioning.hpp).
 DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh, const CertifyOptions& options) {
   const auto start = std::chrono::steady_clock::now();
+
   DistanceReport report;
   report.triangle_upper.assign(mesh.triangles.size(), 0.0);
   if (mesh.triangles.empty()) {
@@ -2063,7 +2216,8 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
                 settled,
                 ring_start,
                 ring_triangles};
-  std::vector<TriangleResult> results, hole_results;
+  TriangleResults results;
+  std::vector<TriangleResult> hole_results;
   refine_triangles(rf, est, results);
   refine_holes(rf, holes, hole_cheap, hole_results);
   if (rf.max_depth < options.max_depth) {
@@ -2071,9 +2225,9 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
     std::vector<char> redo(results.size(), 0), redo_holes(hole_results.size(), 0);
     bool any = false;
     for (size_t t = 0; t < results.size(); ++t) {
-      seen = std::max({seen, results[t].s2m_est, results[t].m2s_est});
-      redo[t] = results[t].exhausted ? 1 : 0;
-      any = any || results[t].exhausted;
+      seen = std::max({seen, results.s2m_est(t), results.m2s_est(t)});
+      redo[t] = results.exhausted(t) ? 1 : 0;
+      any = any || results.exhausted(t);
     }
     for (size_t i = 0; i < hole_results.size(); ++i) {
       seen = std::max(seen, hole_results[i].s2m_est);
@@ -2083,25 +2237,26 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
     if (any) {
       // Both passes' bounds are proven over the whole triangle: each keeps the smaller (the second
       // pass refines against a raised target, so it may stop above what the first reached).
-      const auto bounds = [](const std::vector<TriangleResult>& r) {
-        std::vector<std::pair<double, double>> out(r.size());
-        for (size_t k = 0; k < r.size(); ++k) out[k] = {r[k].m2s, r[k].s2m};
+      const auto bounds = [](auto&& result, size_t count) {
+        std::vector<std::pair<double, double>> out(count);
+        for (size_t k = 0; k < count; ++k) out[k] = {result(k).m2s, result(k).s2m};
         return out;
       };
-      const auto keep_smaller = [](std::vector<TriangleResult>& r,
-                                   const std::vector<std::pair<double, double>>& first) {
-        for (size_t k = 0; k < r.size(); ++k) {
-          r[k].m2s = std::min(r[k].m2s, first[k].first);
-          r[k].s2m = std::min(r[k].s2m, first[k].second);
+      const auto keep_smaller = [](auto&& result, const std::vector<std::pair<double, double>>& first) {
+        for (size_t k = 0; k < first.size(); ++k) {
+          result(k).m2s = std::min(result(k).m2s, first[k].first);
+          result(k).s2m = std::min(result(k).s2m, first[k].second);
         }
       };
-      const auto first = bounds(results), first_holes = bounds(hole_results);
+      const auto refined = [&results](size_t k) -> TriangleResult& { return results.stored(k); };
+      const auto hole = [&hole_results](size_t k) -> TriangleResult& { return hole_results[k]; };
+      const auto first = bounds(refined, results.refined().size()), first_holes = bounds(hole, hole_results.size());
       rf.max_depth = options.max_depth;
       rf.tau = std::max(tau, options.target_ratio * seen);
       refine_triangles(rf, est, results, &redo);
       refine_holes(rf, holes, hole_cheap, hole_results, &redo_holes);
-      keep_smaller(results, first);
-      keep_smaller(hole_results, first_holes);
+      keep_smaller(refined, first);
+      keep_smaller(hole, first_holes);
     }
   }
   Uppers upper = collect_uppers(results, hole_results, report);
@@ -2121,14 +2276,13 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
       upper.s2m > options.target_ratio * upper.m2s) {
     std::vector<Tile> tiles;
     for (size_t t = 0; t < mesh.triangles.size(); ++t)
-      tiles.push_back(
-          {mesh.triangle_patch[t], mesh.triangle_uv[t], triangle_corners(mesh, t), &results[t].kept_leaves});
+      tiles.push_back({mesh.triangle_patch[t], mesh.triangle_uv[t], triangle_corners(mesh, t), results.kept_leaves(t)});
     const std::vector<double> over = surface_over_projected_leaves(tiles, pd);
     if (!over.empty()) {
       const double s2m = *std::max_element(over.begin(), over.end());
       if (s2m < upper.s2m) {
         upper.s2m = s2m;
-        for (size_t t = 0; t < results.size(); ++t) report.triangle_upper[t] = std::max(results[t].m2s, over[t]);
+        for (size_t t = 0; t < results.size(); ++t) report.triangle_upper[t] = std::max(results.m2s(t), over[t]);
       }
     }
   }
