@@ -569,8 +569,45 @@ Vec3 eval_impl(const BezierPatch& patch, DegreeU n, DegreeV m, Vec2 q) {
   return Vec3(h[0] / h[3], h[1] / h[3], h[2] / h[3]);
 }
 
+#if defined(__GNUC__) && defined(__x86_64__)
+#define SAGITTA_EVAL_AVX2 1
+// eval_impl on CPUs with AVX2: the same operations per component on V4 registers, so the same
+// values bit for bit (as evaluate_with_derivatives in kernels/src/evaluate.cpp; with plain SSE2 the
+// vector code ran slower than the scalar loops).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"
+template <class DegreeU, class DegreeV>
+__attribute__((target("avx2"))) Vec3 eval_impl_avx2(const BezierPatch& patch, DegreeU n, DegreeV m, Vec2 q) {
+  const double u = q.x, v = q.y, su = 1.0 - u, sv = 1.0 - v;
+  const V4 su4 = {su, su, su, su}, u4 = {u, u, u, u}, sv4 = {sv, sv, sv, sv}, v4 = {v, v, v, v};
+  V4 rowpts[kMaxDegree + 1], work[kMaxDegree + 1];
+  rowpts[0] = work[0] = V4{0.0, 0.0, 0.0, 0.0};  // (overwritten: degrees are >= 1)
+  for (int i = 0; i <= n; ++i) {
+    for (int j = 0; j <= m; ++j) {
+      const double w = patch.weight(i, j);
+      const Vec3& p = patch.at(i, j);
+      work[j] = V4{w * p.x, w * p.y, w * p.z, w};
+    }
+    for (int r = 1; r <= m; ++r) {
+      for (int j = 0; j <= m - r; ++j) work[j] = sv4 * work[j] + v4 * work[j + 1];
+    }
+    rowpts[i] = work[0];
+  }
+  for (int r = 1; r <= n; ++r) {
+    for (int i = 0; i <= n - r; ++i) rowpts[i] = su4 * rowpts[i] + u4 * rowpts[i + 1];
+  }
+  const V4 h = rowpts[0];
+  return Vec3(h[0] / h[3], h[1] / h[3], h[2] / h[3]);
+}
+#pragma GCC diagnostic pop
+#endif
+
 Vec3 eval(const BezierPatch& patch, Vec2 q) {
   const int n = patch.degree_u, m = patch.degree_v;
+#ifdef SAGITTA_EVAL_AVX2
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  if (avx2) return with_low_degrees(n, m, [&](auto du, auto dv) { return eval_impl_avx2(patch, du, dv, q); });
+#endif
   return with_low_degrees(n, m, [&](auto du, auto dv) { return eval_impl(patch, du, dv, q); });
 }
 
