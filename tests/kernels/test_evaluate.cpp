@@ -98,6 +98,30 @@ TEST(Evaluate, FastPathMatchesLongDoubleReference) {
   EXPECT_LE(worst_high, 1e-12);
 }
 
+// evaluate_with_derivatives (its AVX2 variant on CPUs that have it, the scalar loops otherwise)
+// does de Casteljau's operations in de_casteljau<double>'s order: its position is that one bit for
+// bit, for the unrolled low degrees and the generic ones, rational or not.
+TEST(Evaluate, WithDerivativesPositionIsDeCasteljauBitForBit) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> t(0.0, 1.0);
+  for (int d = 1; d <= kMaxDegree; ++d) {
+    for (const int e : {1, 2, 3, d}) {
+      for (const bool rational : {false, true}) {
+        const BezierPatch patch = fixtures::random_patch(d, e, 31 * d + e, 1.0, Vec3(1e3, -2.0, 0.5),
+                                                         rational ? 0.5 : 0.0, rational ? 2.0 : 0.0);
+        for (int s = 0; s < 20; ++s) {
+          const double u = t(rng), v = t(rng);
+          const auto ref = de_casteljau<double>(patch, u, v);
+          const Vec3 p = evaluate_with_derivatives(patch, u, v).position;
+          ASSERT_EQ(p.x, ref[0]) << "degrees " << d << " x " << e << (rational ? " rational" : "");
+          ASSERT_EQ(p.y, ref[1]) << "degrees " << d << " x " << e << (rational ? " rational" : "");
+          ASSERT_EQ(p.z, ref[2]) << "degrees " << d << " x " << e << (rational ? " rational" : "");
+        }
+      }
+    }
+  }
+}
+
 TEST(Evaluate, DerivativesMatchLongDoubleDifferences) {
   for (int d = 1; d <= 12; ++d) {
     const BezierPatch patch = fixtures::random_patch(d, 13 - d, 77 + d, 2.0, Vec3(3.0), 0.3, 3.0);
