@@ -1,9 +1,15 @@
 #include "sagitta/evaluate.hpp"
 
+#include "sagitta/homogeneous.hpp"
+
 #include <glm/geometric.hpp>
 
 #include <cmath>
 #include <type_traits>
+
+// HVector values pass only between always-inlined functions (sagitta/homogeneous.hpp): GCC's note
+// that AVX vectors change the ABI, issued where the templates are instantiated, is moot.
+#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace sagitta {
 
@@ -47,21 +53,20 @@ template std::array<long double, 3> de_casteljau<long double>(const BezierPatch&
 
 namespace {
 
-using H = std::array<double, 4>;
+using H = detail::HPoint;
 
 // De Casteljau on d + 1 homogeneous points (overwritten); returns value and derivative d/dt.
-// `Degree` is int, or std::integral_constant for the low degrees (the same operations, unrolled).
-template <class Degree>
-void curve_with_derivative(H* pts, Degree d, double t, H& value, H& derivative) {
+// `Degree` is int, or std::integral_constant for the low degrees (the same operations, unrolled);
+// `Point` one of sagitta/homogeneous.hpp's representations (the same values).
+template <class Point, class Degree>
+[[gnu::always_inline]] inline void curve_with_derivative(Point* pts, Degree d, double t, Point& value,
+                                                         Point& derivative) {
+  const double s = 1.0 - t;
   for (int r = 1; r < d; ++r) {
-    for (int k = 0; k <= d - r; ++k) {
-      for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
-    }
+    for (int k = 0; k <= d - r; ++k) pts[k] = detail::combine(pts[k], pts[k + 1], s, t);
   }
-  for (int c = 0; c < 4; ++c) {
-    value[c] = (1.0 - t) * pts[0][c] + t * pts[1][c];
-    derivative[c] = d * (pts[1][c] - pts[0][c]);
-  }
+  value = detail::combine(pts[0], pts[1], s, t);
+  derivative = detail::scaled_difference(pts[0], pts[1], d);
 }
 
 Vec3 project(const H& h) { return Vec3(h[0], h[1], h[2]) / h[3]; }
@@ -98,74 +103,43 @@ Vec3 de_casteljau_curve(const std::vector<Vec3>& points, const std::vector<doubl
 
 namespace {
 
-// evaluate_with_derivatives for degrees n x m (int, or std::integral_constant: the same operations).
-template <class DegreeU, class DegreeV>
-SurfacePointEval evaluate_with_derivatives_impl(const BezierPatch& patch, DegreeU n, DegreeV m, double u, double v) {
+// evaluate_with_derivatives for degrees n x m (int, or std::integral_constant: the same operations)
+// on homogeneous points of type Point.
+template <class Point, class DegreeU, class DegreeV>
+[[gnu::always_inline]] inline SurfacePointEval evaluate_with_derivatives_on(const BezierPatch& patch, DegreeU n,
+                                                                            DegreeV m, double u, double v) {
   // On the stack: the certifier evaluates this in its innermost loops.
-  H along_v[kMaxDegree + 1], rows[kMaxDegree + 1], drows[kMaxDegree + 1];
+  Point along_v[kMaxDegree + 1], rows[kMaxDegree + 1], drows[kMaxDegree + 1];
   for (int i = 0; i <= n; ++i) {
     for (int j = 0; j <= m; ++j) {
       const double w = patch.weight(i, j);
       const Vec3& p = patch.at(i, j);
-      along_v[j] = {w * p.x, w * p.y, w * p.z, w};
+      along_v[j] = detail::make_point<Point>(w * p.x, w * p.y, w * p.z, w);
     }
     curve_with_derivative(along_v, m, v, rows[i], drows[i]);
   }
-  H h, hu, hv, unused;
+  Point h, hu, hv, unused;
   curve_with_derivative(rows, n, u, h, hu);
   curve_with_derivative(drows, n, u, hv, unused);
   SurfacePointEval e;
-  e.position = project(h);
-  e.du = project_derivative(h, hu);
-  e.dv = project_derivative(h, hv);
+  e.position = project(detail::to_point(h));
+  e.du = project_derivative(detail::to_point(h), detail::to_point(hu));
+  e.dv = project_derivative(detail::to_point(h), detail::to_point(hv));
   return e;
-}
-
-#if defined(__GNUC__) && defined(__x86_64__)
-#define SAGITTA_EVAL_AVX2 1
-// The same evaluation on CPUs with AVX2: a homogeneous point in one 256-bit register (GCC/Clang
-// vector type), the same operations per component, so the same values bit for bit (FMA is not
-// enabled, so no multiply-add is fused). Only compiled for AVX2: with plain SSE2, GCC's code for the
-// 32-byte vectors ran slower than the scalar loops above. (No V4 crosses a call: GCC's note that
-// AVX vectors change the ABI is moot.)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wpsabi"
-typedef double V4 __attribute__((vector_size(32)));
-
-template <class Degree>
-[[gnu::always_inline]] inline void curve_with_derivative_v4(V4* pts, Degree d, double t, V4& value, V4& derivative) {
-  const double s = 1.0 - t, dd = d;
-  const V4 sv = {s, s, s, s}, tv = {t, t, t, t}, dv = {dd, dd, dd, dd};
-  for (int r = 1; r < d; ++r) {
-    for (int k = 0; k <= d - r; ++k) pts[k] = sv * pts[k] + tv * pts[k + 1];
-  }
-  value = sv * pts[0] + tv * pts[1];
-  derivative = dv * (pts[1] - pts[0]);
 }
 
 template <class DegreeU, class DegreeV>
+SurfacePointEval evaluate_with_derivatives_impl(const BezierPatch& patch, DegreeU n, DegreeV m, double u, double v) {
+  return evaluate_with_derivatives_on<H>(patch, n, m, u, v);
+}
+
+#ifdef SAGITTA_HVECTOR
+// The same on CPUs with AVX2 (one vector register per point; the same values bit for bit).
+template <class DegreeU, class DegreeV>
 __attribute__((target("avx2"))) SurfacePointEval evaluate_with_derivatives_avx2(const BezierPatch& patch, DegreeU n,
                                                                                 DegreeV m, double u, double v) {
-  V4 along_v[kMaxDegree + 1], rows[kMaxDegree + 1], drows[kMaxDegree + 1];
-  for (int i = 0; i <= n; ++i) {
-    for (int j = 0; j <= m; ++j) {
-      const double w = patch.weight(i, j);
-      const Vec3& p = patch.at(i, j);
-      along_v[j] = V4{w * p.x, w * p.y, w * p.z, w};
-    }
-    curve_with_derivative_v4(along_v, m, v, rows[i], drows[i]);
-  }
-  V4 h4, hu4, hv4, unused;
-  curve_with_derivative_v4(rows, n, u, h4, hu4);
-  curve_with_derivative_v4(drows, n, u, hv4, unused);
-  const H h{h4[0], h4[1], h4[2], h4[3]}, hu{hu4[0], hu4[1], hu4[2], hu4[3]}, hv{hv4[0], hv4[1], hv4[2], hv4[3]};
-  SurfacePointEval e;
-  e.position = project(h);
-  e.du = project_derivative(h, hu);
-  e.dv = project_derivative(h, hv);
-  return e;
+  return evaluate_with_derivatives_on<detail::HVector>(patch, n, m, u, v);
 }
-#pragma GCC diagnostic pop
 #endif
 
 }  // namespace
@@ -173,7 +147,7 @@ __attribute__((target("avx2"))) SurfacePointEval evaluate_with_derivatives_avx2(
 SurfacePointEval evaluate_with_derivatives(const BezierPatch& patch, double u, double v) {
   const int n = patch.degree_u, m = patch.degree_v;
   if (n > kMaxDegree || m > kMaxDegree) throw InputError("degree above 25");
-#ifdef SAGITTA_EVAL_AVX2
+#ifdef SAGITTA_HVECTOR
   static const bool avx2 = __builtin_cpu_supports("avx2");
   if (avx2)
     return with_low_degrees(n, m,

@@ -6,6 +6,7 @@
 #include "mesh_distance.hpp"
 #include "sagitta/budget.hpp"
 #include "sagitta/evaluate.hpp"
+#include "sagitta/homogeneous.hpp"
 
 #include <CGAL/box_intersection_d.h>
 #include <tbb/parallel_for.h>
@@ -29,6 +30,9 @@
 #include <type_traits>
 #include <unordered_map>
 #include <vector>
+
+// V4 and HVector values pass only between always-inlined functions (see V4 below).
+#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace sagitta {
 
@@ -75,9 +79,8 @@ double norm(const Vec2& v) { return glm::length(v); }
 // same as on H (no multiply-add is fused: the targets used do not enable FMA), so the values are
 // bit for bit those of the scalar code. Only there: in code compiled for SSE2 alone, the
 // evaluations with V4 ran slower than the scalar loops (GCC's lowering of 32-byte vectors).
-// (Always inlined, so no V4 crosses a call: GCC's note that AVX vectors change the ABI is moot.)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wpsabi"
+// (Always inlined, so no V4 crosses a call: GCC's note that AVX vectors change the ABI, ignored
+// for this file at its top, is moot; so for sagitta/homogeneous.hpp's HVector.)
 typedef double V4 __attribute__((vector_size(32)));
 [[gnu::always_inline]] inline V4 load(const H& h) {
   V4 v;
@@ -367,7 +370,6 @@ template <int D>
   }
   return wmin_poly;
 }
-#pragma GCC diagnostic pop
 
 // The core bound: Bernstein coefficients of S(sum b_i q_i) - sum b_i X_i over the triangle by
 // blossoming. The tensor-product blossom with i copies of corner 0, j of corner 1 and k of corner 2
@@ -542,69 +544,46 @@ Vec2 PatchData::project_on_segment(const Vec3& x, Vec2 a, Vec2 b, double t) cons
 }
 
 // S(q): de_casteljau<double> (kernels/src/evaluate.cpp) on the stack, the same operations (the
-// degrees int, or std::integral_constant for degrees 1 to 3: unrolled).
-template <class DegreeU, class DegreeV>
-Vec3 eval_impl(const BezierPatch& patch, DegreeU n, DegreeV m, Vec2 q) {
-  const double u = q.x, v = q.y;
-  H rowpts[kMaxDegree + 1], work[kMaxDegree + 1];
+// degrees int, or std::integral_constant for degrees 1 to 3: unrolled), on homogeneous points of
+// type Point (sagitta/homogeneous.hpp: the same values).
+template <class Point, class DegreeU, class DegreeV>
+[[gnu::always_inline]] inline Vec3 eval_on(const BezierPatch& patch, DegreeU n, DegreeV m, Vec2 q) {
+  const double u = q.x, v = q.y, su = 1.0 - u, sv = 1.0 - v;
+  Point rowpts[kMaxDegree + 1], work[kMaxDegree + 1];
   for (int i = 0; i <= n; ++i) {
     for (int j = 0; j <= m; ++j) {
       const double w = patch.weight(i, j);
       const Vec3& p = patch.at(i, j);
-      work[j] = {w * p.x, w * p.y, w * p.z, w};
+      work[j] = detail::make_point<Point>(w * p.x, w * p.y, w * p.z, w);
     }
     for (int r = 1; r <= m; ++r) {
-      for (int j = 0; j <= m - r; ++j) {
-        for (int c = 0; c < 4; ++c) work[j][c] = (1.0 - v) * work[j][c] + v * work[j + 1][c];
-      }
+      for (int j = 0; j <= m - r; ++j) work[j] = detail::combine(work[j], work[j + 1], sv, v);
     }
     rowpts[i] = work[0];
   }
   for (int r = 1; r <= n; ++r) {
-    for (int i = 0; i <= n - r; ++i) {
-      for (int c = 0; c < 4; ++c) rowpts[i][c] = (1.0 - u) * rowpts[i][c] + u * rowpts[i + 1][c];
-    }
+    for (int i = 0; i <= n - r; ++i) rowpts[i] = detail::combine(rowpts[i], rowpts[i + 1], su, u);
   }
-  const H& h = rowpts[0];
+  const H h = detail::to_point(rowpts[0]);
   return Vec3(h[0] / h[3], h[1] / h[3], h[2] / h[3]);
 }
 
-#if defined(__GNUC__) && defined(__x86_64__)
-#define SAGITTA_EVAL_AVX2 1
-// eval_impl on CPUs with AVX2: the same operations per component on V4 registers, so the same
-// values bit for bit (as evaluate_with_derivatives in kernels/src/evaluate.cpp; with plain SSE2 the
-// vector code ran slower than the scalar loops).
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wpsabi"
+template <class DegreeU, class DegreeV>
+Vec3 eval_impl(const BezierPatch& patch, DegreeU n, DegreeV m, Vec2 q) {
+  return eval_on<H>(patch, n, m, q);
+}
+
+#ifdef SAGITTA_HVECTOR
+// The same on CPUs with AVX2 (one vector register per point; the same values bit for bit).
 template <class DegreeU, class DegreeV>
 __attribute__((target("avx2"))) Vec3 eval_impl_avx2(const BezierPatch& patch, DegreeU n, DegreeV m, Vec2 q) {
-  const double u = q.x, v = q.y, su = 1.0 - u, sv = 1.0 - v;
-  const V4 su4 = {su, su, su, su}, u4 = {u, u, u, u}, sv4 = {sv, sv, sv, sv}, v4 = {v, v, v, v};
-  V4 rowpts[kMaxDegree + 1], work[kMaxDegree + 1];
-  rowpts[0] = work[0] = V4{0.0, 0.0, 0.0, 0.0};  // (overwritten: degrees are >= 1)
-  for (int i = 0; i <= n; ++i) {
-    for (int j = 0; j <= m; ++j) {
-      const double w = patch.weight(i, j);
-      const Vec3& p = patch.at(i, j);
-      work[j] = V4{w * p.x, w * p.y, w * p.z, w};
-    }
-    for (int r = 1; r <= m; ++r) {
-      for (int j = 0; j <= m - r; ++j) work[j] = sv4 * work[j] + v4 * work[j + 1];
-    }
-    rowpts[i] = work[0];
-  }
-  for (int r = 1; r <= n; ++r) {
-    for (int i = 0; i <= n - r; ++i) rowpts[i] = su4 * rowpts[i] + u4 * rowpts[i + 1];
-  }
-  const V4 h = rowpts[0];
-  return Vec3(h[0] / h[3], h[1] / h[3], h[2] / h[3]);
+  return eval_on<detail::HVector>(patch, n, m, q);
 }
-#pragma GCC diagnostic pop
 #endif
 
 Vec3 eval(const BezierPatch& patch, Vec2 q) {
   const int n = patch.degree_u, m = patch.degree_v;
-#ifdef SAGITTA_EVAL_AVX2
+#ifdef SAGITTA_HVECTOR
   static const bool avx2 = __builtin_cpu_supports("avx2");
   if (avx2) return with_low_degrees(n, m, [&](auto du, auto dv) { return eval_impl_avx2(patch, du, dv, q); });
 #endif
