@@ -119,13 +119,14 @@ nlohmann::json failed_part_requirements(const ValidateOptions& o, const occt::Pa
   nlohmann::json failed = nlohmann::json::array();
   if (o.max_error >= 0.0) {
     doc["max_error"] = o.max_error;
-    if (!cert.all_certified) {
+    if (cert.distance.hausdorff.lower > o.max_error) {
+      // A certified lower bound of some face is above E: proven, whether every face is certified or not.
+      failed.push_back("max-error: the distance exceeds it (lower bound above)");
+    } else if (!cert.all_certified) {
       failed.push_back("max-error: not certified (" + std::to_string(part.faces.size() - cert.faces_certified) +
                        " faces not certified)");
     } else if (!(cert.distance.hausdorff.upper <= o.max_error)) {
-      failed.push_back(cert.distance.hausdorff.lower > o.max_error
-                           ? "max-error: the distance exceeds it (lower bound above)"
-                           : "max-error: not certified (upper bound above)");
+      failed.push_back("max-error: not certified (upper bound above)");
     }
   }
   if (o.require_watertight) {
@@ -199,7 +200,8 @@ int run_validate_part(const ValidateOptions& o) {
   app::PartCertificate cert;
   {
     const ProgressTicker progress("sagitta validate:", "certifying every face of " + o.input);
-    cert = app::certify_part(part, certify);
+    // With --max-error, the faces left once one is proven above it are skipped (the verdict is known).
+    cert = app::certify_part(part, certify, o.max_error >= 0.0 ? o.max_error : std::numeric_limits<double>::infinity());
   }
   doc["validation"] = app::part_validation_json(check);
   doc["certificate"] = app::part_certificate_json(part, cert);

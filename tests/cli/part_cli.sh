@@ -43,6 +43,15 @@ out=$("$SAGITTA" tessellate "$p" --level 2 --certify --stats "$tmp/sc.json") || 
 "$SAGITTA" validate "$p" --level 2 --json "$tmp/vc.json" >/dev/null || fail "validate exit $?"
 [[ $(python3 -c "import json; a=json.load(open('$tmp/sc.json')); b=json.load(open('$tmp/vc.json')); print(a['certified'] and all(a['certificate']['hausdorff'][k] == b['certificate']['hausdorff'][k] for k in ('lower', 'upper')) and len(a['certificate']['faces']) == a['faces'])") == True ]] \
   || fail "tessellate --certify: interval differs from validate's"
+# --max-error below a face's certified lower bound: exit 3 with the proven verdict, the faces not yet
+# started are skipped (the verdict is known), and the lower bound found is one of the full run's.
+set +e
+"$SAGITTA" validate "$p" --level 2 --max-error 1e-9 --json "$tmp/me.json" >/dev/null 2>"$tmp/me.err"; code=$?
+set -e
+[[ $code == 3 ]] || fail "--max-error 1e-9: exit $code"
+grep -q "max-error: the distance exceeds it (lower bound above)" "$tmp/me.err" || fail "--max-error 1e-9: $(cat "$tmp/me.err")"
+[[ $(python3 -c "import json; d=json.load(open('$tmp/me.json'))['certificate']; f=json.load(open('$tmp/vc.json'))['certificate']; skipped=[x for x in d['faces'] if 'skipped' in x.get('reason', '')]; print(d['note'].startswith('stopped early') and len(skipped) > 0 and d['faces_certified'] + len(skipped) <= d['faces_total'] and 1e-9 < d['hausdorff']['lower'] <= f['hausdorff']['upper'])") == True ]] \
+  || fail "--max-error 1e-9: no early stop, or its lower bound above the full run's upper bound"
 
 if [[ -n "${FIXTURES:-}" && -f "$FIXTURES/facts.json" ]]; then
   # A closed solid with trimmed faces: watertight, closed, volume near FreeCAD's, certified on every

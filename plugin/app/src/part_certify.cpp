@@ -2,6 +2,7 @@
 #include "sagitta/app/common.hpp"
 #include "sagitta/app/json.hpp"
 #include "sagitta/app/part.hpp"
+#include "sagitta/app/report.hpp"
 #include "sagitta/app/validate.hpp"
 #include "sagitta/budget.hpp"
 #include "sagitta/evaluate.hpp"
@@ -14,6 +15,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -1486,7 +1488,7 @@ void fold_faces(PartCertificate& cert) {
 
 }  // namespace
 
-PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& options) {
+PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& options, double stop_above) {
   const Stopwatch clock;
   if (!part.mesh.has_surface()) throw InputError(part.name + ": the part mesh has no (u, v) to certify");
   budget::check_memory(validation_bytes(double(part.mesh.triangles.size())),
@@ -1497,6 +1499,9 @@ PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& o
   FaceTriangles face_triangles(part.faces.size());
   for (size_t t = 0; t < part.triangle_face.size(); ++t) face_triangles[part.triangle_face[t]].push_back(static_cast<uint32_t>(t));
   cert.faces.resize(part.faces.size());
+  // The first face found whose certified lower bound exceeds stop_above (SIZE_MAX: none yet).
+  std::atomic<size_t> decided{SIZE_MAX};
+  std::atomic<size_t> skipped{0};
   // Faces in parallel; each face's certificate is itself parallel over its triangles.
   tbb::parallel_for(size_t(0), part.faces.size(), [&](size_t k) {
     budget::check("certifying the part");  // per face (the validator checks per refinement leaf)
@@ -1505,6 +1510,11 @@ PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& o
     fc.face = f.face_index;
     if (f.status != "tessellated" || face_triangles[k].empty()) {
       fc.reason = "not tessellated: " + (f.reason.empty() ? std::string("no triangles") : f.reason);
+      return;
+    }
+    if (decided.load() != SIZE_MAX) {
+      fc.reason = "not certified: skipped, the part's distance is already proven above " + format_number(stop_above, 6);
+      ++skipped;
       return;
     }
     const Stopwatch face_clock;
@@ -1527,6 +1537,10 @@ PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& o
     }
     if (fc.certified) fc.upper = fc.hausdorff.upper;
     fc.seconds = face_clock.seconds();
+    if (fc.hausdorff.lower > stop_above) {
+      size_t none = SIZE_MAX;
+      decided.compare_exchange_strong(none, k);
+    }
   });
   for (const FaceCertificate& fc : cert.faces) {
     if (!fc.certified) continue;
@@ -1536,6 +1550,12 @@ PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& o
     cert.patches += static_cast<uint64_t>(f.patch_count);
   }
   fold_faces(cert);
+  if (decided.load() != SIZE_MAX) {
+    const size_t k = decided.load();
+    cert.note = "stopped early: " + part.faces[k].name + "'s certified lower bound " +
+                format_number(cert.faces[k].hausdorff.lower, 6) + " is above " + format_number(stop_above, 6) + "; " +
+                std::to_string(skipped.load()) + " faces skipped";
+  }
   if (part.unassigned_triangles > 0) {
     // A foreign mesh's triangles on no single face are in no face's certificate: the mesh as read
     // has no certified upper bound (its lower bounds still hold).

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -94,8 +95,11 @@ struct PartCertificate {
 };
 
 // Throws MemoryLimitExceeded before starting when validation_bytes (sagitta/app/validate.hpp) of the
-// part's triangles exceeds the memory limit.
-PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& options = {});
+// part's triangles exceeds the memory limit. With stop_above finite (`--max-error`): once a face's
+// certified lower bound exceeds it, the part's distance is proven above it, and the faces not yet
+// started are skipped (not certified, with that reason; `note` says so).
+PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& options = {},
+                             double stop_above = std::numeric_limits<double>::infinity());
 
 // certified (all_certified), faces_certified, faces_not_certified [{face, reason}], faces [{face,
 // surface, trimmed, route, certified, lower, upper, reason}], the part's hausdorff /
