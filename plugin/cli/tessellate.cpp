@@ -28,14 +28,19 @@ struct TessellateOptions {
   bool certify = false;
 };
 
+// Why a patch model's mesh is not certified ("" when it is).
+std::string not_certified_reason(const DistanceReport& distance) {
+  if (distance.hausdorff.certified) return "";
+  return distance.not_certified_reason.empty() ? distance.coverage_note : distance.not_certified_reason;
+}
+
 // The certificate's headline under the tessellation's line: the certified Hausdorff interval and
 // its cost against the tessellation's, or why it is not certified.
 void print_certificate(const DistanceReport& distance, double tessellation_seconds) {
   if (distance.hausdorff.certified) {
     std::cout << "certified: hausdorff in [" << distance.hausdorff.lower << ", " << distance.hausdorff.upper << "]";
   } else {
-    std::cout << "not certified: hausdorff >= " << distance.hausdorff.lower << " ("
-              << (distance.not_certified_reason.empty() ? distance.coverage_note : distance.not_certified_reason)
+    std::cout << "not certified: hausdorff >= " << distance.hausdorff.lower << " (" << not_certified_reason(distance)
               << ")";
   }
   std::cout << " in " << distance.seconds << " s";
@@ -50,10 +55,7 @@ nlohmann::json certificate_json(const DistanceReport& distance, double tessellat
   j["hausdorff"] = interval_json(distance.hausdorff);
   j["mesh_to_surface"] = interval_json(distance.mesh_to_surface);
   j["surface_to_mesh"] = interval_json(distance.surface_to_mesh);
-  j["not_certified_reason"] =
-      distance.hausdorff.certified
-          ? std::string()
-          : (distance.not_certified_reason.empty() ? distance.coverage_note : distance.not_certified_reason);
+  j["not_certified_reason"] = not_certified_reason(distance);
   j["seconds"] = distance.seconds;
   if (tessellation_seconds > 0.0) j["certificate_to_tessellation_ratio"] = distance.seconds / tessellation_seconds;
   return j;
@@ -128,14 +130,8 @@ void run_tessellate_part(const TessellateOptions& o) {
             << part.mesh.positions.size() << " vertices, closed solids closed " << closed << "/" << check.volumes.size()
             << ", cracks " << check.crack_edges << ", in " << part.seconds << " s\n";
   if (!o.certify) return;
-  if (cert.all_certified) {
-    std::cout << "certified: hausdorff in [" << cert.distance.hausdorff.lower << ", " << cert.distance.hausdorff.upper
-              << "] on all " << part.faces.size() << " faces";
-  } else {
-    std::cout << "not certified: " << cert.faces_certified << " of " << part.faces.size()
-              << " faces certified; largest lower bound " << cert.distance.hausdorff.lower << " (reasons in --stats)";
-  }
-  std::cout << " in " << cert.seconds << " s\n";
+  std::cout << app::part_certificate_headline(part, cert) << (cert.all_certified ? "" : "; reasons in --stats")
+            << " in " << cert.seconds << " s\n";
 }
 
 void run_tessellate(const TessellateOptions& o) {

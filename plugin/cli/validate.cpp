@@ -167,15 +167,7 @@ void print_part_validation(const occt::PartMesh& part, const app::PartValidation
             << std::count_if(check.volumes.begin(), check.volumes.end(),
                              [](const app::SolidVolume& v) { return v.mesh_closed; })
             << "/" << check.volumes.size() << "\n";
-  if (cert.all_certified) {
-    std::cout << "certified: hausdorff in [" << cert.distance.hausdorff.lower << ", " << cert.distance.hausdorff.upper
-              << "] on all " << part.faces.size() << " faces\n";
-    return;
-  }
-  std::cout << "not certified: " << cert.faces_certified << " of " << part.faces.size() << " faces certified";
-  if (!cert.note.empty()) std::cout << " (" << cert.note << ")";
-  if (cert.faces_certified > 0) std::cout << " (the certified faces' largest upper bound " << cert.certified_faces_upper << ")";
-  std::cout << "; largest lower bound over all faces " << cert.distance.hausdorff.lower << "; reasons in --json\n";
+  std::cout << app::part_certificate_headline(part, cert) << (cert.all_certified ? "" : "; reasons in --json") << "\n";
 }
 
 // A CAD part: the whole-part mesh, its per-solid checks and the certificate where it applies.

@@ -20,6 +20,7 @@
 #include <limits>
 #include <map>
 #include <queue>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -1568,6 +1569,21 @@ PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& o
   }
   cert.seconds = clock.seconds();
   return cert;
+}
+
+std::string part_certificate_headline(const occt::PartMesh& part, const PartCertificate& cert) {
+  std::ostringstream line;
+  if (cert.all_certified) {
+    line << "certified: hausdorff in [" << cert.distance.hausdorff.lower << ", " << cert.distance.hausdorff.upper
+         << "] on all " << part.faces.size() << " faces";
+    return line.str();
+  }
+  line << "not certified: " << cert.faces_certified << " of " << part.faces.size() << " faces certified";
+  if (!cert.note.empty()) line << " (" << cert.note << ")";
+  if (cert.faces_certified > 0)
+    line << " (the certified faces' largest upper bound " << cert.certified_faces_upper << ")";
+  line << "; largest lower bound over all faces " << cert.distance.hausdorff.lower;
+  return line.str();
 }
 
 nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCertificate& c) {

@@ -107,6 +107,11 @@ PartCertificate certify_part(const occt::PartMesh& part, const CertifyOptions& o
 // certified_faces_upper, certified_triangles, certified_patches, seconds.
 nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCertificate& certificate);
 
+// The certificate's headline, one line without its end: "certified: hausdorff in [lower, upper] on
+// all N faces", or "not certified: K of N faces certified (note) (the certified faces' largest upper
+// bound U); largest lower bound over all faces L".
+std::string part_certificate_headline(const occt::PartMesh& part, const PartCertificate& certificate);
+
 // A part meshed by one scheme, checked solid by solid and certified where today's certificate
 // applies: what `sagitta run` and `sagitta report` measure for each scheme or level.
 struct PartRun {
