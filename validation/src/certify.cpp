@@ -1750,35 +1750,33 @@ void refine_triangles(const Refinement& rf, const Estimates& est, TriangleResult
       const size_t t = refined[k];
       if (redo && !(*redo)[t]) continue;
       TriangleResult& result = results.stored(k);
-      {
-        // With a restricted domain (a face of a part, cut along its patch grid) the triangles are
-        // few and large, and a surface point over t may lie nearest to a triangle beyond t's ring
-        // (an analytic face's re-parametrised circle over a coarse triangle): the mesh's tree is
-        // asked too, and the nearer candidate kept.
-        const bool search_tree = static_cast<bool>(options.in_domain);
-        const auto nearest = [&rf, t, search_tree](const Vec3& p, std::array<Vec3, 3>& tri) {
-          if (!search_tree) return rf.nearest_around(t, p, tri);
-          std::array<Vec3, 3> ring{}, any{};
-          const bool r = rf.nearest_around(t, p, ring), a = rf.nearest(p, any);
-          if (!r && !a) return false;
-          const auto distance = [&p](const std::array<Vec3, 3>& T) {
-            return norm(p - closest_on_triangle(p, T[0], T[1], T[2]));
-          };
-          tri = !a || (r && distance(ring) <= distance(any)) ? ring : any;
-          return true;
+      // With a restricted domain (a face of a part, cut along its patch grid) the triangles are
+      // few and large, and a surface point over t may lie nearest to a triangle beyond t's ring
+      // (an analytic face's re-parametrised circle over a coarse triangle): the mesh's tree is
+      // asked too, and the nearer candidate kept.
+      const bool search_tree = static_cast<bool>(options.in_domain);
+      const auto nearest = [&rf, t, search_tree](const Vec3& p, std::array<Vec3, 3>& tri) {
+        if (!search_tree) return rf.nearest_around(t, p, tri);
+        std::array<Vec3, 3> ring{}, any{};
+        const bool r = rf.nearest_around(t, p, ring), a = rf.nearest(p, any);
+        if (!r && !a) return false;
+        const auto distance = [&p](const std::array<Vec3, 3>& T) {
+          return norm(p - closest_on_triangle(p, T[0], T[1], T[2]));
         };
-        const uint32_t patch = mesh.triangle_patch[t];
-        BoxInDomain box_in_domain;
-        if (options.box_in_domain) {
-          box_in_domain = [&options, patch](const Vec2& lo, const Vec2& hi, const Vec2& inside) {
-            return options.box_in_domain(patch, lo, hi, inside);
-          };
-        }
-        result = refine_triangle(
-            rf.pd[patch], mesh.triangle_uv[t], triangle_corners(mesh, t), rf.tau, options.target_ratio, rf.max_depth, s,
-            false, nullptr, nearest, OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]},
-            options.in_domain && !options.domain_contains_patches, rf.cheap[t], &box_in_domain, est.midpoints_of(t));
+        tri = !a || (r && distance(ring) <= distance(any)) ? ring : any;
+        return true;
+      };
+      const uint32_t patch = mesh.triangle_patch[t];
+      BoxInDomain box_in_domain;
+      if (options.box_in_domain) {
+        box_in_domain = [&options, patch](const Vec2& lo, const Vec2& hi, const Vec2& inside) {
+          return options.box_in_domain(patch, lo, hi, inside);
+        };
       }
+      result = refine_triangle(
+          rf.pd[patch], mesh.triangle_uv[t], triangle_corners(mesh, t), rf.tau, options.target_ratio, rf.max_depth, s,
+          false, nullptr, nearest, OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]},
+          options.in_domain && !options.domain_contains_patches, rf.cheap[t], &box_in_domain, est.midpoints_of(t));
       if (result.m2s_est < est.value[t]) {
         result.m2s_est = est.value[t];
         result.m2s_point = est.point[t];
