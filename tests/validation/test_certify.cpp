@@ -434,5 +434,34 @@ TEST(CertifyExternal, MeshWithoutUvAgreesWithOwnCertificate) {
   EXPECT_THROW(certify_external(model, Tessellation{}), InputError);
 }
 
+// A mesh lying in a planar model, its edges across the reference's: CGAL refines a face straddling
+// two coplanar reference faces until its pieces are below the error bound, which at the fine bound
+// (1e-9 of the diagonal) is more work than the limit; the coarse bound (1e-3) must then certify it.
+// Lifted by 0.01, the interval must still contain 0.01 (the exact distance).
+TEST(CertifyExternal, MeshInAPlanarModelAcrossTheReferenceEdgesIsCertified) {
+  Model model;
+  BezierPatch p;
+  p.degree_u = 1;
+  p.degree_v = 1;
+  p.points = {Vec3(0, 0, 0), Vec3(0, 1, 0), Vec3(1, 0, 0), Vec3(1, 1, 0)};
+  model.patches.push_back(p);
+  const double diag = std::sqrt(2.0);
+  for (const double lift : {0.0, 0.01}) {
+    Tessellation fan;
+    fan.positions = {Vec3(0, 0, lift), Vec3(1, 0, lift), Vec3(1, 1, lift), Vec3(0, 1, lift), Vec3(0.37, 0.61, lift)};
+    fan.triangles = {{0, 1, 4}, {1, 2, 4}, {2, 3, 4}, {3, 0, 4}};
+    ExternalOptions options;
+    options.reference_segments = 4;
+    const DistanceReport r = certify_external(model, fan, options);
+    std::cout << "[flat square, lift " << lift << "] [" << r.hausdorff.lower << ", " << r.hausdorff.upper << "] in "
+              << r.seconds << " s\n";
+    EXPECT_TRUE(r.hausdorff.certified) << r.not_certified_reason;
+    EXPECT_LE(r.hausdorff.lower, lift);
+    EXPECT_GE(r.hausdorff.upper, lift);
+    EXPECT_LE(r.hausdorff.upper, lift + 2.0 * 1e-3 * diag + 1e-12);
+    if (lift > 0.0) EXPECT_GE(r.hausdorff.lower, 0.99 * lift);
+  }
+}
+
 }  // namespace
 }  // namespace sagitta

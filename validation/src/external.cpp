@@ -99,18 +99,13 @@ struct CountedPoints {
   }
 };
 
-// Vertex reads allowed per Hausdorff distance: enough for meshes of millions of triangles that are
-// not pathological (measured: 200 to 320 reads per triangle of the two meshes, teapot at levels 2
-// and 4); 402 overlapping triangles on a flat square stop at 20M reads, 1.5 s and 36 MB.
-constexpr uint64_t kHausdorffReadsPerTriangle = 2000;
-constexpr uint64_t kHausdorffMinReads = 20'000'000;
-
 // One-sided bounded-error Hausdorff distance from a to b, or +infinity when it needed more work
 // than the limit (then nothing is claimed about it).
-double bounded_hausdorff(const SurfaceMesh& a, const SurfaceMesh& b, double error_bound) {
+double bounded_hausdorff(const SurfaceMesh& a, const SurfaceMesh& b, double error_bound,
+                         const ExternalOptions& options) {
   WorkCounter counter;
-  counter.limit = std::max<uint64_t>(kHausdorffMinReads,
-                                     kHausdorffReadsPerTriangle * (a.number_of_faces() + b.number_of_faces()));
+  counter.limit = std::max<uint64_t>(
+      options.hausdorff_min_reads, options.hausdorff_reads_per_triangle * (a.number_of_faces() + b.number_of_faces()));
   try {
     return PMP::bounded_error_Hausdorff_distance<CGAL::Sequential_tag>(
         a, b, error_bound, CGAL::parameters::vertex_point_map(CountedPoints{&a, &counter}),
@@ -118,6 +113,21 @@ double bounded_hausdorff(const SurfaceMesh& a, const SurfaceMesh& b, double erro
   } catch (const WorkLimitReached&) {
     return std::numeric_limits<double>::infinity();
   }
+}
+
+// The coarsest error bound tried, relative to the model's box diagonal.
+constexpr double kCoarsestRelativeError = 1e-3;
+
+// An upper bound of the one-sided Hausdorff distance from a to b: CGAL's value within `error_bound`
+// plus that bound. Where that needs more work than the limit (CGAL refines a face that straddles
+// edges of coplanar faces until its pieces are smaller than the error bound, so a mesh lying exactly
+// in a planar reference costs about length / error_bound), it is tried once more with the error
+// bound `coarse`; +infinity when that fails too.
+double hausdorff_upper(const SurfaceMesh& a, const SurfaceMesh& b, double error_bound, double coarse,
+                       const ExternalOptions& options) {
+  const double fine = bounded_hausdorff(a, b, error_bound, options);
+  if (std::isfinite(fine) || !(coarse > error_bound)) return fine + error_bound;
+  return bounded_hausdorff(a, b, coarse, options) + coarse;
 }
 
 // Mesh -> surface lower bound: the mesh points farthest from the reference (vertices, edge
@@ -193,14 +203,15 @@ DistanceReport certify_external_conditioned(const Model& model, const Tessellati
   const double diag = model_box(model).diagonal();
   const double error_bound = std::max(0.02 * std::max(eps_m2s, eps_s2m), 1e-9 * diag);
   // Mesh -> reference and reference -> mesh, each within error_bound of the true one-sided value.
-  const double h_mr = bounded_hausdorff(sm, sr, error_bound);
-  const double h_rm = bounded_hausdorff(sr, sm, error_bound);
+  const double coarse = kCoarsestRelativeError * diag;
+  const double h_mr = hausdorff_upper(sm, sr, error_bound, coarse, options);
+  const double h_rm = hausdorff_upper(sr, sm, error_bound, coarse, options);
   const double rounding = 64.0 * kUnit * diag;
   const detail::MeshDistance to_reference(reference), to_mesh(mesh);
   const double h_zero_area = zero_area_to_reference(mesh, to_reference, error_bound);
-  report.mesh_to_surface.upper = std::max(h_mr, h_zero_area) + error_bound + eps_m2s + rounding;
+  report.mesh_to_surface.upper = std::max(h_mr, h_zero_area + error_bound) + eps_m2s + rounding;
   report.mesh_to_surface.certified = ref.mesh_to_surface.certified && std::isfinite(h_mr);
-  report.surface_to_mesh.upper = h_rm + error_bound + eps_s2m + rounding;
+  report.surface_to_mesh.upper = h_rm + eps_s2m + rounding;
   report.surface_to_mesh.certified = ref.surface_to_mesh.certified && std::isfinite(h_rm);
   report.coverage_ok = ref.coverage_ok;
   report.coverage_note = ref.coverage_note;
