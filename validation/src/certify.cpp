@@ -803,13 +803,14 @@ struct LeafBounds {
 
 // A restricted domain's test for a box of the own patch's (u, v) (CertifyOptions::box_in_domain,
 // bound to the patch): null or empty when there is none.
-using BoxInDomain = std::function<bool(const Vec2& lo, const Vec2& hi, const Vec2& inside)>;
+using BoxInDomain = std::function<double(const Vec2& lo, const Vec2& hi, const Vec2& inside)>;
 
 // Mesh->surface: the leaf's corners matched to their projections on the surface; `lin` is the
 // leaf's bound in its own (u, v). Lowers b.m2s, sets b.m2s_seen and the candidate in res. With
 // own_uv_only (a restricted domain) the projections are used only where box_in_domain vouches for
 // the box of the leaf's own (u, v) and its corners' projections: the projections' triangle then
-// lies in the domain, so its surface points belong to the face.
+// lies in the domain, so its surface points belong to the face (or lie within the margin it
+// returns of the face's, which is added).
 void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin, double tau, const OtherPatches& others,
                            bool own_uv_only, const BoxInDomain* box_in_domain, Scratch& s, LeafBounds& b,
                            TriangleResult& res) {
@@ -834,7 +835,12 @@ void bound_mesh_to_surface(const PatchData& P, const LeafCorners& c, double lin,
   } else if (box_in_domain && *box_in_domain) {
     Vec2 lo = q[0], hi = q[0];
     for (int i = 0; i < 3; ++i) lo = glm::min(lo, glm::min(q[i], qp[i])), hi = glm::max(hi, glm::max(q[i], qp[i]));
-    if ((*box_in_domain)(lo, hi, (q[0] + q[1] + q[2]) / 3.0)) b.m2s = std::min(lin, composed_bound(P, qp, X, s));
+    const double margin = (*box_in_domain)(lo, hi, (q[0] + q[1] + q[2]) / 3.0);
+    if (margin == 0.0) {
+      b.m2s = std::min(lin, composed_bound(P, qp, X, s));
+    } else if (margin < kInf) {  // the surface over the box within `margin` of the domain's
+      b.m2s = std::min(lin, (composed_bound(P, qp, X, s) + margin) * (1.0 + 2.0 * kUnit));
+    }
   }
   if (b.m2s > tau && !others.empty()) {
     // The leaf matched to another patch: sound for the distance to the model, and the only

@@ -1056,42 +1056,115 @@ std::vector<TraceBand> trace_bands(const Grid& g) {
   return bands;
 }
 
-// Whether the box [lo, hi] of patch `local`'s (s, t) lies in the face's domain D, given `inside`, a
-// point of the box in the chords' polygon P (a leaf of a piece: the pieces tile P). The box must lie
-// in the patch and meet no trimming curve: clear of every chord's trace band (the curve lies within
-// trace_deviation of its trace). It is then in D or outside it as a whole (connected), and which one
-// is D's indicator at `inside`: P's (1) flipped by every closed loop "curve - chord" that winds
-// around it, which only a loop whose chord is within its deviation can do (the loop lies in that
-// convex band), counted by even-odd crossings with the trace closed by its chord (homotopic to the
-// loop within the trace band, which misses the box). A point within 1e-6 of the range of a chord
-// (the tiling's matching tolerance) is not decided.
-bool box_in_domain(const Grid& g, const std::vector<TraceBand>& bands, uint32_t local, const Vec2& lo, const Vec2& hi,
-                   const Vec2& inside) {
-  if (!(lo.x >= 0.0 && lo.y >= 0.0 && hi.x <= 1.0 && hi.y <= 1.0)) return false;
+// Trimming curves that run along a side of the face's rectangle (an edge whose p-curve is the
+// iso-line at the end of a non-periodic parameter, up to its proven deviation, as on a B-spline face
+// trimmed on some sides only): the strip next to each side that holds all such curves, in (U, V)
+// units (0: none), and which chords they are. Inside the rectangle such a curve separates nothing
+// from the rest but that strip.
+struct SideStrips {
+  double u_lo = 0.0, u_hi = 0.0, v_lo = 0.0, v_hi = 0.0;
+  std::vector<char> along_side;  // per chord
+};
+SideStrips side_strips(const Grid& g, const std::vector<TraceBand>& bands) {
+  SideStrips out;
+  out.along_side.assign(bands.size(), 0);
   const Vec2 m = g.f.chord_metric;
-  const Vec2 a = g.to_uv(local, lo), b = g.to_uv(local, hi), w = g.to_uv(local, inside);
-  const Vec2 box_lo = glm::min(a, b), box_hi = glm::max(a, b), centre = 0.5 * (box_lo + box_hi);
-  const double range = g.range() * std::max(m.x, m.y), slack = 1e-9 * range;
-  bool in = true;
+  const double u0 = g.f.u_breaks.front(), u1 = g.f.u_breaks.back(), v0 = g.f.v_breaks.front(), v1 = g.f.v_breaks.back();
+  // A curve within 1 % of the range of a side counts as running along it (its strip is cut from
+  // the boxes that the curve's band stops; p-curves of edges on a side wander off it by 1e-3 of the
+  // range, ec_exhaust-A's B-spline faces).
+  const double thin_u = 1e-2 * (u1 - u0), thin_v = 1e-2 * (v1 - v0);
+  const double slack_u = 2e-9 * (u1 - u0), slack_v = 2e-9 * (v1 - v0);
   for (size_t k = 0; k < bands.size(); ++k) {
     const TraceBand& band = bands[k];
-    const occt::BoundaryChord& c = g.f.chords[k];
-    const Vec2 d = c.uv_a - centre;
-    const Vec2 shift = m * (d - periodic_difference(g, d));  // the box moved whole periods towards the chord
-    const Vec2 box_a = m * box_lo + shift, box_b = m * box_hi + shift, point = m * w + shift;
-    // Far from the chord: clear of its curve (within `deviation` of it) and of its trace.
-    if (box_segment_distance(box_a, box_b, band.a, band.b) > 2.0 * band.deviation + band.trace_deviation + slack)
-      continue;
-    for (size_t i = 0; i + 1 < band.trace.size(); ++i) {
-      if (!(box_segment_distance(box_a, box_b, band.trace[i], band.trace[i + 1]) > band.trace_deviation + slack))
-        return false;
+    if (!(band.trace_deviation < kInf)) continue;
+    // The curve lies within trace_deviation (metric) of its trace: of the side, by the farthest
+    // trace point's distance plus that, in (U, V) units.
+    double to_u0 = 0.0, to_u1 = 0.0, to_v0 = 0.0, to_v1 = 0.0;
+    for (const Vec2& t : band.trace) {
+      to_u0 = std::max(to_u0, t.x / m.x - u0), to_u1 = std::max(to_u1, u1 - t.x / m.x);
+      to_v0 = std::max(to_v0, t.y / m.y - v0), to_v1 = std::max(to_v1, v1 - t.y / m.y);
     }
-    const double to_chord = segment_distance(point, band.a, band.b);
-    if (to_chord > band.deviation) continue;
-    if (to_chord < 1e-6 * range) return false;
-    if (sliver::odd_crossings(band.trace, point)) in = !in;
+    const double du = band.trace_deviation / m.x + slack_u, dv = band.trace_deviation / m.y + slack_v;
+    const auto take = [&](double width, double thin, double& strip) {
+      if (!(width <= thin)) return false;
+      strip = std::max(strip, width);
+      return true;
+    };
+    bool along = false;
+    if (g.f.u_period == 0.0) {
+      along = take(to_u0 + du, thin_u, out.u_lo) || along;
+      along = take(to_u1 + du, thin_u, out.u_hi) || along;
+    }
+    if (g.f.v_period == 0.0) {
+      along = take(to_v0 + dv, thin_v, out.v_lo) || along;
+      along = take(to_v1 + dv, thin_v, out.v_hi) || along;
+    }
+    out.along_side[k] = along ? 1 : 0;
   }
-  return in;
+  return out;
+}
+
+// How far the surface over the box [lo, hi] of patch `local`'s (s, t) may be from the face: 0 when
+// the box lies in the face's domain D, a bound m when every point p of the box has a point p' of D
+// with |S(p) - S(p')| <= m, +infinity when neither is shown. `inside` is a point of the box in the
+// chords' polygon P (a leaf of a piece: the pieces tile P). The box must lie in the patch and meet
+// no trimming curve: clear of every chord's trace band (the curve lies within trace_deviation of its
+// trace). It is then in D or outside it as a whole (connected), and which one is D's indicator at
+// `inside`: P's (1) flipped by every closed loop "curve - chord" that winds around it, which only a
+// loop whose chord is within its deviation can do (the loop lies in that convex band), counted by
+// even-odd crossings with the trace closed by its chord (homotopic to the loop within the trace
+// band, which misses the box). A point within 1e-6 of the range of a chord (the tiling's matching
+// tolerance) is not decided. Where that fails and the box reaches into side strips (SideStrips), the
+// test is made again on the box without the strips, which no curve along those sides meets: a point
+// p of a strip is then within the strip's width of the cut box along U (or V), so m = sqrt(uu) x the
+// U strip's width + sqrt(vv) x the V strip's (Gram bound `gram` of the face). `inside` must lie in
+// the (cut) box.
+double box_in_domain(const Grid& g, const std::vector<TraceBand>& bands, const SideStrips& strips, const Gram& gram,
+                     uint32_t local, const Vec2& lo, const Vec2& hi, const Vec2& inside) {
+  if (!(lo.x >= 0.0 && lo.y >= 0.0 && hi.x <= 1.0 && hi.y <= 1.0)) return kInf;
+  const Vec2 m = g.f.chord_metric;
+  const Vec2 a = g.to_uv(local, lo), b = g.to_uv(local, hi), w = g.to_uv(local, inside);
+  const double range = g.range() * std::max(m.x, m.y), slack = 1e-9 * range;
+  // Whether the box lies in D; with `cut`, the curves along the sides are not tested (the box
+  // has been cut clear of their strips).
+  const auto in_domain = [&](const Vec2& box_lo, const Vec2& box_hi, bool cut) {
+    if (!(box_lo.x <= w.x && w.x <= box_hi.x && box_lo.y <= w.y && w.y <= box_hi.y)) return false;
+    const Vec2 centre = 0.5 * (box_lo + box_hi);
+    bool in = true;
+    for (size_t k = 0; k < bands.size(); ++k) {
+      const TraceBand& band = bands[k];
+      const occt::BoundaryChord& c = g.f.chords[k];
+      const Vec2 d = c.uv_a - centre;
+      const Vec2 shift = m * (d - periodic_difference(g, d));  // the box moved whole periods towards the chord
+      const Vec2 box_a = m * box_lo + shift, box_b = m * box_hi + shift, point = m * w + shift;
+      // Far from the chord: clear of its curve (within `deviation` of it) and of its trace.
+      if (box_segment_distance(box_a, box_b, band.a, band.b) > 2.0 * band.deviation + band.trace_deviation + slack)
+        continue;
+      for (size_t i = 0; !(cut && strips.along_side[k]) && i + 1 < band.trace.size(); ++i) {
+        if (!(box_segment_distance(box_a, box_b, band.trace[i], band.trace[i + 1]) > band.trace_deviation + slack))
+          return false;
+      }
+      const double to_chord = segment_distance(point, band.a, band.b);
+      if (to_chord > band.deviation) continue;
+      if (to_chord < 1e-6 * range) return false;
+      if (sliver::odd_crossings(band.trace, point)) in = !in;
+    }
+    return in;
+  };
+  Vec2 box_lo = glm::min(a, b), box_hi = glm::max(a, b);
+  if (in_domain(box_lo, box_hi, false)) return 0.0;
+  // The side strips cut from the box.
+  double cut_u = 0.0, cut_v = 0.0;
+  const double u0 = g.f.u_breaks.front(), u1 = g.f.u_breaks.back(), v0 = g.f.v_breaks.front(), v1 = g.f.v_breaks.back();
+  if (strips.u_lo > 0.0 && box_lo.x < u0 + strips.u_lo) box_lo.x = u0 + strips.u_lo, cut_u = strips.u_lo;
+  if (strips.u_hi > 0.0 && box_hi.x > u1 - strips.u_hi)
+    box_hi.x = u1 - strips.u_hi, cut_u = std::max(cut_u, strips.u_hi);
+  if (strips.v_lo > 0.0 && box_lo.y < v0 + strips.v_lo) box_lo.y = v0 + strips.v_lo, cut_v = strips.v_lo;
+  if (strips.v_hi > 0.0 && box_hi.y > v1 - strips.v_hi)
+    box_hi.y = v1 - strips.v_hi, cut_v = std::max(cut_v, strips.v_hi);
+  if ((cut_u == 0.0 && cut_v == 0.0) || !in_domain(box_lo, box_hi, true)) return kInf;
+  return (std::sqrt(gram.uu) * cut_u + std::sqrt(gram.vv) * cut_v) * (1.0 + 16.0 * kUnit);
 }
 
 void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Model& model,
@@ -1329,9 +1402,13 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   cut.domain_contains_patches = !f.trimmed;
   // On a trimmed face, where the leaf and its corners' projections lie clear of the trimming curves.
   const std::vector<TraceBand> bands = f.trimmed ? trace_bands(g) : std::vector<TraceBand>{};
+  const SideStrips strips = side_strips(g, bands);
+  const std::vector<Gram> grams = patch_grams(model, g);
+  const Gram gram = face_gram(grams, g);
   if (f.trimmed)
-    cut.box_in_domain = [&g, &bands](uint32_t local, const Vec2& lo, const Vec2& hi, const Vec2& inside) {
-      return box_in_domain(g, bands, local, lo, hi, inside);
+    cut.box_in_domain = [&g, &bands, &strips, &gram](uint32_t local, const Vec2& lo, const Vec2& hi,
+                                                     const Vec2& inside) {
+      return box_in_domain(g, bands, strips, gram, local, lo, hi, inside);
     };
   DistanceReport d = certify_distance(model, pieces.mesh, cut);
   const double shallow_lower = std::max(d.mesh_to_surface.lower, d.surface_to_mesh.lower);
@@ -1356,8 +1433,6 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   // face's rectangle (both ends do), so the speed bound is taken over the patches whose cells meet
   // the band's box. A tiling gap of rounding size between neighbours' corners costs the face's
   // largest speed times 1e-12 of the range.
-  const std::vector<Gram> grams = patch_grams(model, g);
-  const Gram gram = face_gram(grams, g);
   const double gap = (std::sqrt(gram.uu) + std::sqrt(gram.vv)) * 1e-12 * g.range();
   std::vector<uint32_t> chord_triangle;
   const std::string tiling = tiling_reason(g, vertices, corner_uv, chord_triangle);

@@ -62,13 +62,15 @@ struct CertifyOptions {
   // match a triangle to its corners' projections onto its own patch (a (u, v) triangle inside the
   // patch lies in the domain), as without in_domain; the other restrictions stay.
   bool domain_contains_patches = false;
-  // With in_domain (and not domain_contains_patches): true only when every point of the box
-  // [lo, hi] of patch `patch`'s (u, v) belongs to the domain; `inside` is a point of the box that
-  // lies in a mesh triangle's own (u, v) (the centroid of a leaf). Mesh->surface may then match a
-  // leaf to its corners' projections onto its own patch where the box of the leaf's (u, v) and the
-  // projections is vouched for (a re-parametrised cone's triangle, whose own-(u, v) bound slides
-  // along the surface). Thread safe, as in_domain.
-  std::function<bool(uint32_t patch, const Vec2& lo, const Vec2& hi, const Vec2& inside)> box_in_domain;
+  // With in_domain (and not domain_contains_patches): how far the surface over the box [lo, hi] of
+  // patch `patch`'s (u, v) may be from the surface over the domain: 0 only when every point of the
+  // box belongs to the domain; a finite m when every point p of the box has a point p' of the
+  // domain with |S(p) - S(p')| <= m; +infinity when neither is known. `inside` is a point of the box
+  // that lies in a mesh triangle's own (u, v) (the centroid of a leaf). Mesh->surface may then match
+  // a leaf to its corners' projections onto its own patch, adding m, where the box of the leaf's
+  // (u, v) and the projections is vouched for (a re-parametrised cone's triangle, whose own-(u, v)
+  // bound slides along the surface). Thread safe, as in_domain.
+  std::function<double(uint32_t patch, const Vec2& lo, const Vec2& hi, const Vec2& inside)> box_in_domain;
 };
 
 struct DistanceReport {
