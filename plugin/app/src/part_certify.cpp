@@ -1508,6 +1508,7 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   fc.surface_to_mesh.upper = face_upper;
   if (!tiling.empty()) {
     fc.reason = tiling;
+    fc.mesh_dependent = true;
   } else if (!deviations_proven) {
     fc.reason = "a trimming curve's deviation from its chords is not proven (its p-curve has no exact Bézier form)";
   } else if (!d.not_certified_reason.empty()) {

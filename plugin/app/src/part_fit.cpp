@@ -2,6 +2,7 @@
 #include "sagitta/app/common.hpp"
 #include "sagitta/app/json.hpp"
 #include "sagitta/app/part.hpp"
+#include "sagitta/app/report.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -171,6 +172,7 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
   int n = 1;
   PartRun run;
   std::vector<int> previous_uncertified;
+  std::vector<double> stuck_lower;  // per face: its lower bound at the last N where it and its edges' offset exceeded E
   bool met = false;
   while (true) {
     met = attempt(n, {}, run, 0.0, tolerance);
@@ -184,18 +186,39 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
         lo[f] = n;
       }
     }
-    if (met) break;
+    // Met on the certified faces only: the others may be certified at a finer N (a coarse grid's
+    // loops crossing themselves in (U, V)); the rule below stops when the same faces fail twice.
+    if (met && run.certificate.all_certified) break;
     if (run.certificate.faces_certified == 0) {
       fit.reason = "cannot be certified: " + uncertified_faces(run);
       return finish(n, {}, std::move(run));
     }
+    // A face proven farther from its mesh than the target at two doublings in a row, its lower bound
+    // no lower than 0.9 of the last one, while its B-rep edges lie farther than the target from its
+    // surface: the mesh's boundary vertices sit on those edges at every density, so doubling on
+    // would not meet the target (a shelled solid whose inner face kept its edges 2 mm away).
+    stuck_lower.resize(run.certificate.faces.size(), -1.0);
+    for (const FaceCertificate& c : run.certificate.faces) {
+      const occt::PartFace& face = run.part.faces[static_cast<size_t>(c.face)];
+      double& last = stuck_lower[static_cast<size_t>(c.face)];
+      const bool above = c.hausdorff.lower > target && face.max_boundary_offset > target;
+      const bool stuck = above && last > 0.0 && c.hausdorff.lower >= 0.9 * last;
+      last = above ? c.hausdorff.lower : -1.0;
+      if (stuck) {
+        fit.reason = "cannot be met with this B-rep: " + face.name + "'s edges lie up to " +
+                     format_number(face.max_boundary_offset, 6) + " from its surface (its certified lower bound " +
+                     format_number(c.hausdorff.lower, 6) + "), above the target";
+        return finish(n, {}, std::move(run));
+      }
+    }
     if (std::all_of(hi.begin(), hi.end(), [](int h) { return h > 0; })) break;
     // The same faces not certified at two doublings in a row: their reasons do not depend on N (a
     // p-curve with no exact Bézier form), so the fit cannot be met and doubling on would only cost
-    // time.
+    // time. Faces whose mesh did not tile their domain are left out: a finer grid may tile it (a
+    // helical sweep's coarse rows beside its densely sampled seam); the cap ends those.
     std::vector<int> uncertified;
     for (const FaceCertificate& f : run.certificate.faces) {
-      if (!f.certified) uncertified.push_back(f.face);
+      if (!f.certified && !f.mesh_dependent) uncertified.push_back(f.face);
     }
     if (!uncertified.empty() && uncertified == previous_uncertified) {
       fit.reason = "cannot be certified at " + std::to_string(n / 2) + " or " + std::to_string(n) +

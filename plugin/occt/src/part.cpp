@@ -928,6 +928,18 @@ EdgePlan plan_edge(const PartOptions& options, const ShapeIndex& x, const std::v
     n = std::min(n, 1 << 16);
     for (int k = 0; k <= n; ++k) plan.t.push_back(k == n ? last : first + (last - first) * k / n);
   }
+  // A closed edge bounds a loop by itself: with fewer than 3 chords its polygon has no area (an owner
+  // face's 2 segments along a circle), so the largest intervals are split until it has 3.
+  if (!plan.degenerated && !v_first.IsNull() && v_first.IsSame(v_last)) {
+    while (plan.t.size() >= 2 && plan.t.size() < 4) {
+      size_t widest = 0;
+      for (size_t k = 1; k + 1 < plan.t.size(); ++k) {
+        if (plan.t[k + 1] - plan.t[k] > plan.t[widest + 1] - plan.t[widest]) widest = k;
+      }
+      plan.t.insert(plan.t.begin() + static_cast<std::ptrdiff_t>(widest) + 1,
+                    0.5 * (plan.t[widest] + plan.t[widest + 1]));
+    }
+  }
   double tol = options.edge_tolerance;
   for (int f : faces) {
     const double face_tol = f < static_cast<int>(options.face_edge_tolerance.size())

@@ -5,8 +5,10 @@
 #include <CGAL/Triangulation_data_structure_2.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
 
+#include <cmath>
 #include <map>
 #include <set>
+#include <stdexcept>
 
 namespace sagitta::occt::detail {
 
@@ -25,6 +27,16 @@ using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, Tds, CGAL::Exact_
 
 CdtResult constrained_delaunay(const std::vector<Vec2>& points, const std::vector<std::array<uint32_t, 2>>& constraints,
                                size_t loop_constraints) {
+  // CGAL's triangulation assumes finite coordinates and valid vertex handles: a NaN or an index
+  // past the points would corrupt it (a crash, not an exception).
+  for (const Vec2& p : points) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y))
+      throw std::runtime_error("internal: a point of the face's (u, v) triangulation is not finite");
+  }
+  for (const auto& c : constraints) {
+    if (c[0] >= points.size() || c[1] >= points.size())
+      throw std::runtime_error("internal: a constraint of the face's (u, v) triangulation names no point");
+  }
   CdtResult r;
   r.points = points;
   r.merged.resize(points.size());
@@ -40,6 +52,9 @@ CdtResult constrained_delaunay(const std::vector<Vec2>& points, const std::vecto
   for (const auto& c : constraints) {
     if (handles[c[0]] != handles[c[1]]) cdt.insert_constraint(handles[c[0]], handles[c[1]]);
   }
+  // Points all on one line (a loop of two distinct points, say) make a triangulation of dimension
+  // below 2: it has no faces, and its edges are not faces with three neighbours to flood-fill.
+  if (cdt.dimension() < 2) return r;
   for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
     if (v->info().index < 0) {
       v->info().index = static_cast<int64_t>(r.points.size());

@@ -396,6 +396,78 @@ TEST(AppPart, FitGoesOnPastAFaceNotCertifiedAtOneDensityOnly) {
   EXPECT_NE(always.reason.find("not proven"), std::string::npos) << always.reason;
 }
 
+// fit_part when a face's mesh does not tile its domain at the first two densities (planted: one of
+// its triangles flipped in (U, V) at 1 and 2 segments): such a face may tile at a finer N (a helical
+// sweep's coarse rows beside its seam), so the search goes on past two doublings and meets the
+// target with every face certified. Before, the same face uncertified twice stopped it.
+TEST(AppPart, FitGoesOnPastFacesWhoseMeshDoesNotTileThem) {
+  const std::string path = shared_data("cad/step/OCC2368.stp");
+  SAGITTA_REQUIRE_DATA(path);
+  const double target = 2e-3 * model_box(mesh_part(path, 0).model).diagonal();
+  int planted = -1;
+  const auto mesher = [&](const occt::PartOptions& options) {
+    occt::PartMesh part = occt::mesh_part_file(path, options);
+    if (options.scheme.segments > 2 || !options.face_segments.empty()) return part;
+    for (size_t t = 0; t < part.mesh.triangles.size(); ++t) {
+      const occt::PartFace& f = part.faces[part.triangle_face[t]];
+      if (!f.trimmed || f.kept_whole || (planted >= 0 && f.face_index != planted)) continue;
+      std::swap(part.mesh.triangles[t][1], part.mesh.triangles[t][2]);
+      std::swap(part.mesh.triangle_uv[t][1], part.mesh.triangle_uv[t][2]);
+      planted = f.face_index;
+      break;
+    }
+    return part;
+  };
+  const app::PartFit fit = app::fit_part(mesher, target, CertifyOptions{});
+  ASSERT_GE(planted, 0);
+  ASSERT_GE(fit.steps.size(), 3u);
+  EXPECT_FALSE(fit.steps[0].certified);
+  EXPECT_FALSE(fit.steps[1].certified);
+  EXPECT_TRUE(fit.met) << fit.reason;
+  EXPECT_TRUE(fit.run.certificate.all_certified);
+  EXPECT_LE(fit.run.certificate.distance.hausdorff.upper, target);
+}
+
+// fit_part on a B-rep whose edges lie farther from a face than the target (planted: a boundary
+// vertex of a plane moved off it by 10x the target, and that face's measured boundary offset set to
+// it): the face's certified lower bound stays above the target at 1 and 2 segments, so the fit
+// stops after two steps and says the B-rep cannot meet the target, naming the face. With the offset
+// alone (no vertex moved) the lower bounds fall as N grows and the fit meets the target.
+TEST(AppPart, FitStopsWhenTheBRepsEdgesLieFartherThanTheTarget) {
+  const std::string path = shared_data("cad/step/OCC2368.stp");
+  SAGITTA_REQUIRE_DATA(path);
+  const double target = 2e-3 * model_box(mesh_part(path, 0).model).diagonal();
+  std::string planted;
+  const auto mesher = [&](bool move) {
+    return [&, move](const occt::PartOptions& options) {
+      occt::PartMesh part = occt::mesh_part_file(path, options);
+      for (size_t t = 0; t < part.mesh.triangles.size(); ++t) {
+        occt::PartFace& f = part.faces[part.triangle_face[t]];
+        if (f.surface_type != "Plane" || f.chords.empty()) continue;
+        f.max_boundary_offset = 10.0 * target;
+        planted = f.name;
+        if (!move) break;
+        const auto& tri = part.mesh.triangles[t];
+        const Vec3 normal = glm::normalize(glm::cross(part.mesh.positions[tri[1]] - part.mesh.positions[tri[0]],
+                                                      part.mesh.positions[tri[2]] - part.mesh.positions[tri[0]]));
+        part.mesh.positions[f.chords.front().a] += 10.0 * target * normal;
+        break;
+      }
+      return part;
+    };
+  };
+  const app::PartFit stuck = app::fit_part(mesher(true), target, CertifyOptions{});
+  ASSERT_FALSE(planted.empty());
+  EXPECT_FALSE(stuck.met);
+  EXPECT_EQ(stuck.steps.size(), 2u);
+  EXPECT_NE(stuck.reason.find("cannot be met with this B-rep: " + planted + "'s edges"), std::string::npos)
+      << stuck.reason;
+
+  const app::PartFit fine = app::fit_part(mesher(false), target, CertifyOptions{});
+  EXPECT_TRUE(fine.met) << fine.reason;
+  EXPECT_GT(fine.steps.size(), 2u);
+}
+
 // fit_part gives each face its own density: on OCC2368 (a plane with holes, cylinders, cones) the
 // faces end at different segment counts, the part meets the target with every face certified and
 // with fewer triangles than the smallest uniform N that meets, and the bounds hold against brute force.

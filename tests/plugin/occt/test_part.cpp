@@ -10,9 +10,17 @@
 #include "sagitta/solid_check.hpp"
 
 #include <BRepBndLib.hxx>
+#include <BRepBuilderAPI_MakeEdge.hxx>
+#include <BRepBuilderAPI_MakeWire.hxx>
+#include <BRepLib.hxx>
 #include <BRepMesh_IncrementalMesh.hxx>
+#include <BRepOffsetAPI_MakePipeShell.hxx>
+#include <BRepTools.hxx>
 #include <BRep_Tool.hxx>
 #include <Bnd_Box.hxx>
+#include <Geom2d_Line.hxx>
+#include <Geom2d_TrimmedCurve.hxx>
+#include <Geom_CylindricalSurface.hxx>
 #include <Poly_Triangulation.hxx>
 #include <TopExp.hxx>
 #include <TopExp_Explorer.hxx>
@@ -20,6 +28,8 @@
 #include <TopTools_IndexedMapOfShape.hxx>
 #include <TopoDS.hxx>
 #include <TopoDS_Face.hxx>
+#include <gp_Ax3.hxx>
+#include <gp_Circ.hxx>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -214,6 +224,51 @@ TEST(Part, FixturesHaveTheirGenusAndVolume) {
     ++parts;
   }
   EXPECT_GE(parts, 9);
+}
+
+// A pipe swept along a helix (a spring, a thread): one B-spline face whose single span in U runs
+// round the whole section circle, and two caps bounded by closed circle edges that the pipe's grid
+// owns. At 2 segments per patch side the owner put 2 chords on each circle, the caps' loops had no
+// area and CGAL's triangulation of dimension 1 crashed the process; at 3 a cap's loop was a triangle.
+// Now a closed edge has at least 3 chords: every density tessellates every face, the caps have
+// triangles, and from 4 segments on (the default level 2) the solid is closed.
+TEST(Part, HelicalPipeAtEveryDensity) {
+  Handle(Geom_CylindricalSurface) cylinder = new Geom_CylindricalSurface(gp_Ax3(gp::XOY()), 20.0);
+  const gp_Dir2d along(2.0 * M_PI, 10.0);  // one turn per 10 along z
+  const double turns = 4.0, length = turns * std::hypot(2.0 * M_PI, 10.0);
+  Handle(Geom2d_TrimmedCurve) line = new Geom2d_TrimmedCurve(new Geom2d_Line(gp_Pnt2d(0.0, 0.0), along), 0.0, length);
+  TopoDS_Edge helix = BRepBuilderAPI_MakeEdge(line, cylinder).Edge();
+  BRepLib::BuildCurves3d(helix);
+  const TopoDS_Wire spine = BRepBuilderAPI_MakeWire(helix).Wire();
+  const gp_Circ section(gp_Ax2(gp_Pnt(20.0, 0.0, 0.0), gp_Dir(0.0, 1.0, 0.0)), 3.0);
+  const TopoDS_Wire profile = BRepBuilderAPI_MakeWire(BRepBuilderAPI_MakeEdge(section).Edge()).Wire();
+  BRepOffsetAPI_MakePipeShell pipe(spine);
+  pipe.SetMode(true);  // Frenet, as FreeCAD's makePipeShell(..., isFrenet=True)
+  pipe.Add(profile);
+  pipe.Build();
+  ASSERT_TRUE(pipe.IsDone());
+  ASSERT_TRUE(pipe.MakeSolid());
+  const std::filesystem::path file = std::filesystem::temp_directory_path() / "sagitta_helical_pipe.brep";
+  ASSERT_TRUE(BRepTools::Write(pipe.Shape(), file.string().c_str()));
+  for (const int segments : {1, 2, 3, 4, 8}) {
+    PartOptions options;
+    options.scheme.level = -1;
+    options.scheme.segments = segments;
+    const PartMesh part = mesh_part_file(file.string(), options);
+    ASSERT_EQ(part.faces.size(), 3u);
+    EXPECT_EQ(part.faces_tessellated, 3) << segments;
+    std::vector<int> per_face(part.faces.size(), 0);
+    for (uint32_t f : part.triangle_face) ++per_face[f];
+    for (size_t f = 0; f < per_face.size(); ++f) EXPECT_GE(per_face[f], 1) << part.faces[f].name << " at " << segments;
+    if (segments >= 4) {
+      for (const SolidCheck& c : check_solids(part.mesh, part.triangle_solid, part.boundary_edges)) {
+        if (c.solid < 0) continue;
+        EXPECT_TRUE(c.closed) << segments;
+        EXPECT_EQ(c.euler_characteristic, 2) << segments;
+      }
+    }
+  }
+  std::filesystem::remove(file);
 }
 
 // The ESC scheme inside the faces (threshold relative to the part's size): every face tessellated,

@@ -66,6 +66,9 @@ struct FaceCertificate {
   std::string route;        // "patch" | "loops" | "" (not tessellated)
   bool certified = false;   // both directions' upper bounds proven
   std::string reason;       // why not certified ("" when certified)
+  // Not certified because of this mesh's own shape in (U, V) (its triangles do not tile the face's
+  // domain once): a finer mesh of the face may be certified.
+  bool mesh_dependent = false;
   DistanceInterval mesh_to_surface, surface_to_mesh, hausdorff;  // face <-> its own triangles
   double upper = 0.0;       // hausdorff.upper when certified
   double sliver = 0.0;      // loops route: the most the slivers add to a triangle's own bound, model units
