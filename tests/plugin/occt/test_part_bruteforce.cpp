@@ -157,6 +157,24 @@ std::vector<Vec3> mesh_points(const Tessellation& mesh, const std::vector<size_t
   return points;
 }
 
+// The largest of OCCT's BRepExtrema distances from the points to the face (+infinity, with a test
+// failure, where the solver fails).
+double largest_extrema_distance(const TopoDS_Face& face, const std::vector<Vec3>& points, const std::string& name) {
+  BRepExtrema_DistShapeShape extrema;
+  extrema.SetFlag(Extrema_ExtFlag_MIN);
+  extrema.LoadS2(face);
+  double largest = 0.0;
+  for (const Vec3& x : points) {
+    extrema.LoadS1(BRepBuilderAPI_MakeVertex(gp_Pnt(x.x, x.y, x.z)).Vertex());
+    if (!(extrema.Perform() && extrema.IsDone())) {
+      ADD_FAILURE() << name << ": BRepExtrema failed at " << x.x << " " << x.y << " " << x.z;
+      return std::numeric_limits<double>::infinity();
+    }
+    largest = std::max(largest, extrema.Value());
+  }
+  return largest;
+}
+
 struct BruteForce {
   int faces_checked = 0;
   double worst_ratio = 0.0;  // the largest brute-force distance / certified upper over the faces
@@ -359,15 +377,8 @@ TEST(PartBruteForceCones, MeshToFaceBoundsOnTrimmedConesFollowTheProjections) {
     if (face.surface_type != "Cone" || !face.trimmed) continue;
     ASSERT_TRUE(f.certified) << face.name << ": " << f.reason;
     ++cones;
-    BRepExtrema_DistShapeShape extrema;
-    extrema.SetFlag(Extrema_ExtFlag_MIN);
-    extrema.LoadS2(occt_part.face(f.face));
-    double brute = 0.0;
-    for (const Vec3& x : mesh_points(part.mesh, face_triangles[static_cast<size_t>(f.face)])) {
-      extrema.LoadS1(BRepBuilderAPI_MakeVertex(gp_Pnt(x.x, x.y, x.z)).Vertex());
-      ASSERT_TRUE(extrema.Perform() && extrema.IsDone()) << face.name;
-      brute = std::max(brute, extrema.Value());
-    }
+    const double brute = largest_extrema_distance(
+        occt_part.face(f.face), mesh_points(part.mesh, face_triangles[static_cast<size_t>(f.face)]), face.name);
     EXPECT_LE(brute, f.mesh_to_surface.upper * (1 + 1e-9) + solver) << face.name;
     // The triangles' own mesh -> surface bound (the face's upper adds the slivers' term to it).
     const double ratio = f.triangles_mesh_to_surface / std::max(brute, f.mesh_to_surface.lower);
@@ -408,14 +419,9 @@ TEST(PartBruteForceSides, TrimmedFacesAlongTheirSidesFollowTheProjections) {
     const double ratio = f.hausdorff.upper / f.hausdorff.lower;
     worst_ratio = std::max(worst_ratio, ratio);
     EXPECT_LE(ratio, 1.3) << face.name << ": [" << f.hausdorff.lower << ", " << f.hausdorff.upper << "]";
-    BRepExtrema_DistShapeShape extrema;
-    extrema.SetFlag(Extrema_ExtFlag_MIN);
-    extrema.LoadS2(occt_part.face(f.face));
-    for (const Vec3& x : mesh_points(part.mesh, face_triangles[static_cast<size_t>(f.face)])) {
-      extrema.LoadS1(BRepBuilderAPI_MakeVertex(gp_Pnt(x.x, x.y, x.z)).Vertex());
-      ASSERT_TRUE(extrema.Perform() && extrema.IsDone()) << face.name;
-      EXPECT_LE(extrema.Value(), f.triangles_mesh_to_surface * (1 + 1e-9) + solver) << face.name;
-    }
+    const double brute = largest_extrema_distance(
+        occt_part.face(f.face), mesh_points(part.mesh, face_triangles[static_cast<size_t>(f.face)]), face.name);
+    EXPECT_LE(brute, f.triangles_mesh_to_surface * (1 + 1e-9) + solver) << face.name;
   }
   EXPECT_GE(faces, 9);
   std::cout << "ec_exhaust-A trimmed B-spline faces (BRepMesh, 1e-2 of the diagonal): " << faces
