@@ -928,9 +928,10 @@ EdgePlan plan_edge(const PartOptions& options, const ShapeIndex& x, const std::v
     n = std::min(n, 1 << 16);
     for (int k = 0; k <= n; ++k) plan.t.push_back(k == n ? last : first + (last - first) * k / n);
   }
-  // A closed edge bounds a loop by itself: with fewer than 3 chords its polygon has no area (an owner
-  // face's 2 segments along a circle), so the largest intervals are split until it has 3.
-  if (!plan.degenerated && !v_first.IsNull() && v_first.IsSame(v_last)) {
+  // A closed edge bounds a loop by itself: with fewer than 3 chords its polygon has no area. An edge
+  // sampled above already has 3 (n >= 3); an owner face's side vertices may give 2 (a pipe's grid
+  // along its end circle), so there the widest intervals are split until it has 3.
+  if (owned && !v_first.IsNull() && v_first.IsSame(v_last)) {
     while (plan.t.size() >= 2 && plan.t.size() < 4) {
       size_t widest = 0;
       for (size_t k = 1; k + 1 < plan.t.size(); ++k) {
