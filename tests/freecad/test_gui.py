@@ -59,7 +59,12 @@ def save_screenshot(view, path):
     process_events(30)
     view.fitAll()
     mdi = mw.findChild(QtGui.QMdiArea)
-    widget = mdi.activeSubWindow().widget()
+    # activeSubWindow() is None while the main window is not the active window (Xvfb gives focus to
+    # no one when another client grabs it); the current or only sub-window is the 3D view then.
+    sub = mdi.activeSubWindow() or mdi.currentSubWindow() or (mdi.subWindowList() or [None])[0]
+    if sub is None:
+        return False
+    widget = sub.widget()
     origin = widget.mapTo(mw, QtCore.QPoint(0, 0))
     rendering = path + ".view.png"
     view.saveImage(rendering, widget.width(), widget.height(), "White")
