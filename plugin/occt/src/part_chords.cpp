@@ -220,23 +220,49 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
       if (trace) trace->deviation = d;
       return d;  // a point: no overshoot proven (the chord's ends are the point's neighbours)
     }
-    Handle(Geom2d_TrimmedCurve) piece = new Geom2d_TrimmedCurve(pcurve, std::min(p0, p1), std::max(p0, p1));
-    const Handle(Geom2d_BSplineCurve) spline = Geom2dConvert::CurveToBSplineCurve(piece);
-    Geom2dConvert_BSplineCurveToBezierCurve bezier(spline);
-    double deviation = 0.0;
-    std::vector<Arc> arcs;
-    for (int k = 1; k <= bezier.NbArcs(); ++k) {
-      const Handle(Geom2d_BezierCurve) arc = bezier.Arc(k);
-      Arc h;
-      for (int i = 1; i <= arc->NbPoles(); ++i) {
-        const double w = arc->Weight(i);
-        if (!(w > 0.0) || !std::isfinite(w)) return kInf;
-        const gp_Pnt2d q = arc->Pole(i);
-        h.push_back(glm::dvec3(w * q.X(), w * q.Y(), w));
+    // The piece's exact Bézier arcs (homogeneous poles); empty when a weight is not positive.
+    const auto bezier_arcs = [&](double lo, double hi) {
+      Handle(Geom2d_TrimmedCurve) piece = new Geom2d_TrimmedCurve(pcurve, lo, hi);
+      const Handle(Geom2d_BSplineCurve) spline = Geom2dConvert::CurveToBSplineCurve(piece);
+      Geom2dConvert_BSplineCurveToBezierCurve bezier(spline);
+      std::vector<Arc> result;
+      for (int k = 1; k <= bezier.NbArcs(); ++k) {
+        const Handle(Geom2d_BezierCurve) arc = bezier.Arc(k);
+        Arc h;
+        for (int i = 1; i <= arc->NbPoles(); ++i) {
+          const double w = arc->Weight(i);
+          if (!(w > 0.0) || !std::isfinite(w)) return std::vector<Arc>{};
+          const gp_Pnt2d q = arc->Pole(i);
+          h.push_back(glm::dvec3(w * q.X(), w * q.Y(), w));
+        }
+        result.push_back(std::move(h));
       }
-      deviation = std::max(deviation, bounder.bound(h));
-      arcs.push_back(std::move(h));
+      return result;
+    };
+    // A piece a few 1e-10 of its parameter long (an edge split near a seam or a vertex) is below
+    // OCCT's parameter confusion: its trimming or its Bézier split throws. Then a wider piece around
+    // it, inside the curve's range, is bounded instead: it holds the piece's points, so its deviation,
+    // overshoot and sides bound the piece's; the chord is its own trace then.
+    double lo = std::min(p0, p1), hi = std::max(p0, p1);
+    bool widened = false;
+    std::vector<Arc> arcs;
+    try {
+      arcs = bezier_arcs(lo, hi);
+    } catch (const Standard_Failure&) {
+      const double first = pcurve->IsPeriodic() ? -kInf : pcurve->FirstParameter();
+      const double last = pcurve->IsPeriodic() ? kInf : pcurve->LastParameter();
+      const double unit = 1e-8 * std::max(1.0, std::max(std::abs(lo), std::abs(hi)));
+      if (!(hi - lo < unit)) throw;
+      const double mid = 0.5 * (lo + hi);
+      lo = std::max(first, mid - unit);
+      hi = std::min(last, mid + unit);
+      if (!(hi - lo > 0.5 * unit)) throw;
+      arcs = bezier_arcs(lo, hi);
+      widened = true;
     }
+    if (arcs.empty()) return kInf;
+    double deviation = 0.0;
+    for (const Arc& h : arcs) deviation = std::max(deviation, bounder.bound(h));
     if (!std::isfinite(deviation)) return kInf;
     if (overshoot) {
       double beyond = 0.0;
@@ -257,7 +283,7 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
         *sides = bulge > 0.0 ? ChordSides{bulging, opposite} : ChordSides{opposite, bulging};
       }
     }
-    if (trace && (deviation <= bounder.floor || !map.identity)) {
+    if (trace && (deviation <= bounder.floor || !map.identity || widened)) {
       // A straight curve, or one through a non-identity map (not traced: its iterative map would cost
       // up to 90 % more part tessellation time): the chord is its own trace.
       trace->deviation = deviation + rounding;

@@ -5,6 +5,7 @@
 // construction (fixtures/cad/facts.json), and CGAL's closedness / orientation / self-intersection
 // verdicts through check_solids.
 #include "occt_shape.hpp"
+#include "part_chords.hpp"
 
 #include "sagitta/occt/part.hpp"
 #include "sagitta/solid_check.hpp"
@@ -18,10 +19,13 @@
 #include <BRepTools.hxx>
 #include <BRep_Tool.hxx>
 #include <Bnd_Box.hxx>
+#include <Geom2dAPI_Interpolate.hxx>
+#include <Geom2d_BSplineCurve.hxx>
 #include <Geom2d_Line.hxx>
 #include <Geom2d_TrimmedCurve.hxx>
 #include <Geom_CylindricalSurface.hxx>
 #include <Poly_Triangulation.hxx>
+#include <TColgp_HArray1OfPnt2d.hxx>
 #include <TopExp.hxx>
 #include <TopExp_Explorer.hxx>
 #include <TopLoc_Location.hxx>
@@ -431,4 +435,44 @@ TEST(Part, RefusesPnAndBadFiles) {
 }
 
 }  // namespace
+}  // namespace sagitta::occt
+
+namespace sagitta::occt {
+
+// A chord 1.5e-10 of its p-curve's parameter long (trj10's edges split near a cylinder's seam at 8
+// segments per side): OCCT cannot split so short a piece into Bézier arcs, so a wider piece around
+// it is bounded. The bound must be proven (finite) and hold: at least the distance of the piece's
+// middle point from the chord, and small against the piece's size.
+TEST(PartChords, ChordsShorterThanOcctsParameterConfusionAreStillBounded) {
+  Handle(TColgp_HArray1OfPnt2d) points = new TColgp_HArray1OfPnt2d(1, 12);
+  for (int k = 1; k <= 12; ++k) {
+    const double t = 2.0 * M_PI * (k - 1) / 12.0;
+    points->SetValue(k, gp_Pnt2d(6.0 + 2.0 * std::cos(t), 17.0 + std::sin(t)));
+  }
+  Geom2dAPI_Interpolate interpolate(points, /*periodic=*/true, 1e-9);
+  interpolate.Perform();
+  ASSERT_TRUE(interpolate.IsDone());
+  const Handle(Geom2d_BSplineCurve) curve = interpolate.Curve();
+  occt::detail::ParameterMap identity;
+  for (const double length : {1.5e-10, 4e-10, 1e-3}) {
+    const double p0 = 0.37 * curve->LastParameter() + 0.63 * curve->FirstParameter(), p1 = p0 + length;
+    const gp_Pnt2d a = curve->Value(p0), b = curve->Value(p1), m = curve->Value(0.5 * (p0 + p1));
+    occt::detail::ChordTrace trace;
+    double overshoot = 0.0;
+    occt::detail::ChordSides sides;
+    const double deviation = occt::detail::chord_deviation(curve, p0, p1, identity, Vec2(a.X(), a.Y()),
+                                                           Vec2(b.X(), b.Y()), &trace, &overshoot, &sides);
+    SCOPED_TRACE(length);
+    ASSERT_TRUE(std::isfinite(deviation));
+    EXPECT_TRUE(std::isfinite(trace.deviation));
+    EXPECT_TRUE(std::isfinite(overshoot));
+    EXPECT_TRUE(std::isfinite(sides.left) && std::isfinite(sides.right));
+    // The middle point's distance from the line through a and b is a lower bound of the deviation.
+    const Vec2 d(b.X() - a.X(), b.Y() - a.Y());
+    const double off = std::abs(d.x * (m.Y() - a.Y()) - d.y * (m.X() - a.X())) / glm::length(d);
+    EXPECT_GE(deviation, off * (1.0 - 1e-6));
+    EXPECT_LE(deviation, std::max(1e-6, 0.1 * length));
+  }
+}
+
 }  // namespace sagitta::occt
