@@ -434,11 +434,6 @@ TEST(Part, RefusesPnAndBadFiles) {
   EXPECT_THROW(mesh_part_brep_string("", "empty", PartOptions()), InputError);
 }
 
-}  // namespace
-}  // namespace sagitta::occt
-
-namespace sagitta::occt {
-
 // A chord 1.5e-10 of its p-curve's parameter long (trj10's edges split near a cylinder's seam at 8
 // segments per side): OCCT cannot split so short a piece into Bézier arcs, so a wider piece around
 // it is bounded. The bound must be proven (finite) and hold: at least the distance of the piece's
@@ -475,4 +470,5 @@ TEST(PartChords, ChordsShorterThanOcctsParameterConfusionAreStillBounded) {
   }
 }
 
+}  // namespace
 }  // namespace sagitta::occt
