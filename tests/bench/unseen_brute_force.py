@@ -8,14 +8,15 @@ where that projection lies in the face's domain (both are distances to points of
 least the true distance). Shape -> mesh: about 3,000 points of the faces (a staggered (u, v) grid,
 kept where isPartOfDomain) against every triangle (exact point-triangle distance). Prints the two
 maxima and OK when neither exceeds E, else FALSE CERTIFICATE."""
-import os, sys, random
+import os
+import random
+import struct
 import numpy as np
 import FreeCAD as App, Part
 V = App.Vector
 shape = Part.read(os.environ["BF_SHAPE"])
 upper = float(os.environ["BF_UPPER"])
 # Sagitta's binary PLY read in double (FreeCAD's Mesh keeps float32: 0.004 steps at 1e5).
-import struct
 data = open(os.environ["BF_MESH"], 'rb').read()
 head = data[:data.index(b'end_header\n')].decode().split('\n')
 nv = int([l for l in head if l.startswith('element vertex')][0].split()[2])
