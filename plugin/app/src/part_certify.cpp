@@ -1245,6 +1245,66 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
   }
   const double net_rounding = 256.0 * kUnit * spread * patch_size;
   constexpr int kNodes = 1500;  // boxes popped per candidate
+
+  // A proven lower bound of d(p, F), F the face, given a disk N (centre `centre`, radius r, metric)
+  // of (U, V) that lies wholly outside D: the smallest distance from p to the hull of the patches'
+  // boxes not inside N, by branch and bound (smallest bound first). It stops when a box is 1/16 of
+  // N's radius, at 98 % of `estimate` (a point of F's distance to p) or after kNodes boxes; the popped
+  // bound is the answer, less the sub-nets' rounding. -1 when a weight is not positive.
+  struct Box {
+    double lower;
+    uint32_t patch;
+    Vec2 s, t;  // local [s.x, s.y] x [t.x, t.y]
+    Net net;
+    bool operator>(const Box& o) const { return lower > o.lower; }
+  };
+  const auto lower_off_disk = [&](const Vec3& p, const Vec2& centre, double r, double estimate) {
+    const auto corners_in_n = [&](const Box& b) {
+      for (const double s : {b.s.x, b.s.y}) {
+        for (const double t : {b.t.x, b.t.y}) {
+          if (!(glm::length(m * g.to_uv(b.patch, Vec2(s, t)) - centre) <= r)) return false;
+        }
+      }
+      return true;
+    };
+    const double rounding = net_rounding + 4.0 * kUnit * glm::length(p);
+    std::priority_queue<Box, std::vector<Box>, std::greater<Box>> open;
+    bool sound = true;
+    const auto push = [&](Box b) {
+      if (corners_in_n(b)) return;
+      b.lower = hull_distance(b.net, p);
+      if (b.lower < 0.0) sound = false;
+      open.push(std::move(b));
+    };
+    for (uint32_t k = 0; k < model.patches.size(); ++k)
+      push({0.0, k, Vec2(0.0, 1.0), Vec2(0.0, 1.0), homogeneous_net(model.patches[k])});
+    double lower = -1.0;
+    for (int nodes = 0; sound && !open.empty(); ++nodes) {
+      Box b = open.top();
+      open.pop();
+      const Vec2 c00 = m * g.to_uv(b.patch, Vec2(b.s.x, b.t.x)), c11 = m * g.to_uv(b.patch, Vec2(b.s.y, b.t.y));
+      const Vec2 extent = glm::abs(c11 - c00);
+      if (b.lower >= 0.98 * estimate || nodes >= kNodes || std::max(extent.x, extent.y) <= r / 16.0) {
+        lower = b.lower;
+        break;
+      }
+      const BezierPatch& patch = model.patches[b.patch];
+      const int axis = extent.x >= extent.y ? 0 : 1;
+      auto [low, high] = halve(b.net, patch.rows(), patch.cols(), axis);
+      Box left = b, right = std::move(b);
+      left.net = std::move(low), right.net = std::move(high);
+      if (axis == 0) {
+        left.s.y = right.s.x = 0.5 * (left.s.x + left.s.y);
+      } else {
+        left.t.y = right.t.x = 0.5 * (left.t.x + left.t.y);
+      }
+      push(std::move(left));
+      push(std::move(right));
+    }
+    if (!sound || lower < 0.0) return -1.0;
+    return lower * (1.0 - 8.0 * kUnit) - rounding;
+  };
+
   double per_deviation = kInf;  // lower bound found per unit of chord deviation (kInf: none found yet)
   for (const Candidate& cand : candidates) {
     const occt::BoundaryChord& c = f.chords[cand.chord];
@@ -1286,58 +1346,128 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
     // A chord as wide as one already bounded yields about as much (the same surface's scale): skip
     // it unless its deviation promises 2 % more.
     if (!(estimate > m2s.lower) || !(1.02 * per_deviation * c.deviation > m2s.lower)) continue;
-    struct Box {
-      double lower;
-      uint32_t patch;
-      Vec2 s, t;  // local [s.x, s.y] x [t.x, t.y]
-      Net net;
-      bool operator>(const Box& o) const { return lower > o.lower; }
-    };
-    const auto corners_in_n = [&](const Box& b) {
-      for (const double s : {b.s.x, b.s.y}) {
-        for (const double t : {b.t.x, b.t.y}) {
-          if (!(glm::length(m * g.to_uv(b.patch, Vec2(s, t)) - mid) <= r)) return false;
-        }
-      }
-      return true;
-    };
-    const double rounding = net_rounding + 4.0 * kUnit * glm::length(p);
-    std::priority_queue<Box, std::vector<Box>, std::greater<Box>> open;
-    bool sound = true;
-    const auto push = [&](Box b) {
-      if (corners_in_n(b)) return;
-      b.lower = hull_distance(b.net, p);
-      if (b.lower < 0.0) sound = false;
-      open.push(std::move(b));
-    };
-    for (uint32_t k = 0; k < model.patches.size(); ++k)
-      push({0.0, k, Vec2(0.0, 1.0), Vec2(0.0, 1.0), homogeneous_net(model.patches[k])});
-    double lower = -1.0;
-    for (int nodes = 0; sound && !open.empty(); ++nodes) {
-      Box b = open.top();
-      open.pop();
-      const Vec2 c00 = m * g.to_uv(b.patch, Vec2(b.s.x, b.t.x)), c11 = m * g.to_uv(b.patch, Vec2(b.s.y, b.t.y));
-      const Vec2 extent = glm::abs(c11 - c00);
-      if (b.lower >= 0.98 * estimate || nodes >= kNodes || std::max(extent.x, extent.y) <= r / 16.0) {
-        lower = b.lower;
-        break;
-      }
-      const BezierPatch& patch = model.patches[b.patch];
-      const int axis = extent.x >= extent.y ? 0 : 1;
-      auto [low, high] = halve(b.net, patch.rows(), patch.cols(), axis);
-      Box left = b, right = std::move(b);
-      left.net = std::move(low), right.net = std::move(high);
-      if (axis == 0) {
-        left.s.y = right.s.x = 0.5 * (left.s.x + left.s.y);
-      } else {
-        left.t.y = right.t.x = 0.5 * (left.t.x + left.t.y);
-      }
-      push(std::move(left));
-      push(std::move(right));
-    }
-    lower = lower * (1.0 - 8.0 * kUnit) - rounding;
-    if (!sound || !(lower > m2s.lower)) continue;
+    const double lower = lower_off_disk(p, mid, r, estimate);
+    if (!(lower > m2s.lower)) continue;
     per_deviation = per_deviation == kInf ? lower / c.deviation : std::max(per_deviation, lower / c.deviation);
+    m2s.lower = lower;
+    m2s.witness = p;
+    m2s.witness_patch = -1;
+  }
+
+  // Boundary vertices off their trimming curve: a shared edge vertex sits on its edge's 3D curve,
+  // which may leave S(p-curve) by up to the edge's tolerance (trj10's planes: a corner 3.2e-4 along
+  // the plane from its p-curves' corner). Its nearest point of the untrimmed surface then lies
+  // outside D, where the bounds against the untrimmed patches give about 0. The same three steps,
+  // with N a disk around that nearest point's (U, V) (Gauss-Newton from the vertex's own (U, V);
+  // any point gives a sound bound, a near one a tight bound) classified against P by the tiling:
+  // no triangle's (U, V) comes within the matching tolerance of it, so it lies outside P.
+  struct VertexCandidate {
+    Vec3 p;           // a mesh point: a chord's end or middle
+    Vec2 uv;          // its (U, V) on the chord
+    double offset;    // |p - S(uv)|, which orders the candidates
+    double estimate;  // |p - x| for a point x of F (the branch and bound stops near it)
+  };
+  std::vector<VertexCandidate> vertex_candidates;
+  const auto locate = [&](Vec2 uv, Vec2& st) {
+    const auto index = [](const std::vector<double>& breaks, double x) {
+      const auto it = std::upper_bound(breaks.begin() + 1, breaks.end() - 1, x);
+      return static_cast<size_t>(it - breaks.begin()) - 1;
+    };
+    const size_t i = index(f.u_breaks, uv.x), j = index(f.v_breaks, uv.y);
+    const double s = (uv.x - f.u_breaks[i]) / (f.u_breaks[i + 1] - f.u_breaks[i]);
+    st = Vec2(f.reversed ? 1.0 - s : s, (uv.y - f.v_breaks[j]) / (f.v_breaks[j + 1] - f.v_breaks[j]));
+    return static_cast<uint32_t>(i * g.nv + j);
+  };
+  const auto surface_at = [&](const Vec2& uv) {
+    Vec2 st;
+    const uint32_t local = locate(uv, st);
+    return evaluate_with_derivatives(model.patches[local], st.x, st.y).position;
+  };
+  for (const occt::BoundaryChord& c : f.chords) {
+    if (c.a == c.b) continue;
+    // The chord's end a: S(uv_a) is a point of F (the trimming curve's end).
+    const Vec3 end = part.mesh.positions[c.a];
+    const double offset = glm::length(end - surface_at(c.uv_a));
+    if (offset > m2s.lower && std::isfinite(offset)) vertex_candidates.push_back({end, c.uv_a, offset, offset});
+    // Its middle: the trimming curve's points are points of F.
+    const Vec3 middle = 0.5 * (part.mesh.positions[c.a] + part.mesh.positions[c.b]);
+    const Vec2 uv_mid = 0.5 * (c.uv_a + c.uv_b);
+    double estimate = kInf;
+    for (const Vec3& q : c.curve_points) estimate = std::min(estimate, glm::length(q - middle) + c.curve_point_error);
+    const double mid_offset = glm::length(middle - surface_at(uv_mid));
+    if (estimate > m2s.lower && std::isfinite(mid_offset))
+      vertex_candidates.push_back({middle, uv_mid, std::min(mid_offset, estimate), estimate});
+  }
+  constexpr size_t kVertexCandidates = 8;
+  const auto farther = [](const VertexCandidate& x, const VertexCandidate& y) { return x.offset > y.offset; };
+  if (vertex_candidates.size() > kVertexCandidates) {
+    std::nth_element(vertex_candidates.begin(), vertex_candidates.begin() + kVertexCandidates, vertex_candidates.end(),
+                     farther);
+    vertex_candidates.resize(kVertexCandidates);
+  }
+  std::sort(vertex_candidates.begin(), vertex_candidates.end(), farther);
+  const Vec2 window_lo(f.u_breaks.front(), f.v_breaks.front()), window_hi(f.u_breaks.back(), f.v_breaks.back());
+  for (const VertexCandidate& cand : vertex_candidates) {
+    if (!(cand.estimate > m2s.lower)) continue;
+    const Vec3& p = cand.p;
+    // The nearest point of the untrimmed surface: Gauss-Newton in (U, V), kept in the patch window.
+    Vec2 uv = glm::clamp(cand.uv, window_lo, window_hi);
+    for (int step = 0; step < 12; ++step) {
+      Vec2 st;
+      const uint32_t local = locate(uv, st);
+      const SurfacePointEval e = evaluate_with_derivatives(model.patches[local], st.x, st.y);
+      const size_t i = local / g.nv, j = local % g.nv;
+      const Vec3 su = e.du * ((f.reversed ? -1.0 : 1.0) / (f.u_breaks[i + 1] - f.u_breaks[i]));
+      const Vec3 sv = e.dv / (f.v_breaks[j + 1] - f.v_breaks[j]);
+      const double a = glm::dot(su, su), b = glm::dot(su, sv), d = glm::dot(sv, sv);
+      const double det = a * d - b * b;
+      if (!(det > 0.0)) break;
+      const Vec3 r = p - e.position;
+      const double x = glm::dot(su, r), y = glm::dot(sv, r);
+      const Vec2 next = glm::clamp(uv + Vec2(d * x - b * y, a * y - b * x) / det, window_lo, window_hi);
+      if (!(std::isfinite(next.x) && std::isfinite(next.y))) break;
+      const bool still = next == uv;
+      uv = next;
+      if (still) break;
+    }
+    const Vec2 centre = m * uv;
+    // 1. N's radius: the clearance from every trace band.
+    double r = kInf;
+    for (const Band& band : bands) r = std::min(r, band.clearance(centre));
+    r -= 1e-12 * range;
+    if (!(r > 1e-9 * range)) continue;
+    // 2. The centre lies outside P: no triangle (whole periods moved towards it) comes within the
+    // tiling's matching tolerance of it. D's indicator there is P's (0) flipped by the loops "curve
+    // - chord" that wind around it.
+    bool outside_p = true;
+    for (size_t x = 0; outside_p && x < corner_uv.size(); ++x) {
+      const Vec2 d = corner_uv[x][0] - uv;
+      const Vec2 here = m * (uv + (d - periodic_difference(g, d)));
+      const Vec2 t0 = m * corner_uv[x][0], t1 = m * corner_uv[x][1], t2 = m * corner_uv[x][2];
+      const auto side = [&](const Vec2& a, const Vec2& b) {
+        return (b.x - a.x) * (here.y - a.y) - (b.y - a.y) * (here.x - a.x);
+      };
+      const double s0 = side(t0, t1), s1 = side(t1, t2), s2 = side(t2, t0);
+      const bool inside = (s0 >= 0.0 && s1 >= 0.0 && s2 >= 0.0) || (s0 <= 0.0 && s1 <= 0.0 && s2 <= 0.0);
+      const double edge =
+          std::min({segment_distance(here, t0, t1), segment_distance(here, t1, t2), segment_distance(here, t2, t0)});
+      if (inside || !(edge >= 1e-6 * range)) outside_p = false;
+    }
+    if (!outside_p) continue;
+    bool in_d = false, decided = true;
+    for (size_t k = 0; k < bands.size(); ++k) {
+      const Band& band = bands[k];
+      const Vec2 d = f.chords[k].uv_a - uv;
+      const Vec2 point = m * (uv + (d - periodic_difference(g, d)));  // moved whole periods towards the chord
+      const double to_chord = segment_distance(point, band.a, band.b);
+      if (to_chord > band.deviation) continue;
+      if (to_chord < 1e-6 * range) decided = false;
+      if (odd_crossings(band.trace, point)) in_d = !in_d;
+    }
+    if (!decided || in_d) continue;
+    // 3. Branch and bound off N; S(uv) of the vertex's own (U, V) is the estimate.
+    const double lower = lower_off_disk(p, centre, r, cand.estimate);
+    if (!(lower > m2s.lower)) continue;
     m2s.lower = lower;
     m2s.witness = p;
     m2s.witness_patch = -1;
