@@ -1739,6 +1739,8 @@ void vertex_rings(const Tessellation& mesh, std::vector<uint32_t>& start, std::v
 
 // Depth of the first refinement pass (see certify_conditioned).
 constexpr int kFirstPassDepth = 4;
+// Depth of the look taken before it where the estimates saw nothing (see certify_conditioned).
+constexpr int kProbeDepth = 2;
 
 // Pass 2: the triangles whose cheap bound is above rf.settled refined (only those with redo[t] set
 // when redo is given, the others keep their results; without redo `results` is set up first, the
@@ -2238,6 +2240,27 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
                 ring_triangles};
   TriangleResults results;
   std::vector<TriangleResult> hole_results;
+  uint64_t earlier_leaves = 0;  // evaluated by the passes whose results a later pass replaces
+  if (estimate < floor && rf.max_depth > kProbeDepth) {
+    // The estimates saw nothing above the rounding floor, but the cheap bounds leave room: a
+    // surface that leaves the mesh between the estimates' points (bearing.iges's small B-spline
+    // faces with a collapsed side: the estimates ~1e-17, the face's distance 1.7e-5, every triangle
+    // refined to the first pass's depth against the floor). A shallow look first; the largest
+    // distance it sees (measured at its leaves' corners, so a distance the mesh really has) raises
+    // the target, as the second pass does. Only the target changes: every bound stays proven.
+    Refinement look = rf;
+    look.max_depth = kProbeDepth;
+    TriangleResults seen_results;
+    std::vector<TriangleResult> seen_holes;
+    refine_triangles(look, est, seen_results);
+    refine_holes(look, holes, hole_cheap, seen_holes);
+    double seen = 0.0;
+    for (size_t t = 0; t < seen_results.size(); ++t)
+      seen = std::max({seen, seen_results.s2m_est(t), seen_results.m2s_est(t)});
+    for (size_t k = 0; k < seen_results.refined().size(); ++k) earlier_leaves += seen_results.stored(k).leaves;
+    for (const TriangleResult& r : seen_holes) seen = std::max(seen, r.s2m_est), earlier_leaves += r.leaves;
+    rf.tau = std::max(rf.tau, options.target_ratio * seen);
+  }
   refine_triangles(rf, est, results);
   refine_holes(rf, holes, hole_cheap, hole_results);
   if (rf.max_depth < options.max_depth) {
@@ -2271,6 +2294,9 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
       const auto refined = [&results](size_t k) -> TriangleResult& { return results.stored(k); };
       const auto hole = [&hole_results](size_t k) -> TriangleResult& { return hole_results[k]; };
       const auto first = bounds(refined, results.refined().size()), first_holes = bounds(hole, hole_results.size());
+      for (size_t k = 0; k < results.refined().size(); ++k)
+        earlier_leaves += redo[results.refined()[k]] ? results.stored(k).leaves : 0;
+      for (size_t i = 0; i < hole_results.size(); ++i) earlier_leaves += redo_holes[i] ? hole_results[i].leaves : 0;
       rf.max_depth = options.max_depth;
       rf.tau = std::max(tau, options.target_ratio * seen);
       refine_triangles(rf, est, results, &redo);
@@ -2280,6 +2306,7 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
     }
   }
   Uppers upper = collect_uppers(results, hole_results, report);
+  report.leaves += earlier_leaves;
   report.rounding = worst_triangle_rounding(mesh, pd, report.triangle_upper);
   if (options.in_domain) {
     report.coverage_note = "restricted domain: the caller checks that the triangles cover it";

@@ -275,6 +275,47 @@ TEST(AppPart, PlanesWithHolesHaveTightIntervals) {
   expect_face_bounds_hold(part, cert);
 }
 
+// bearing.iges's small B-spline faces with a collapsed side (16 of them, 88 triangles each at level
+// 3): the mesh lies on the surface at every estimate point (~1e-17) while the surface leaves the mesh
+// by 1.7e-5 elsewhere, so the refinement's target sat at the rounding floor and every triangle was
+// refined to the first pass's full depth (341 leaves each, 60 % of the part's certificate). A shallow
+// look first raises the target to what it sees: far fewer leaves, and the interval stays within 1.1.
+TEST(AppPart, FacesWhoseEstimatesSeeNothingAreNotRefinedToTheFloor) {
+  const std::string path = shared_data("cad/step/bearing.iges");
+  SAGITTA_REQUIRE_DATA(path);
+  const occt::PartMesh part = mesh_part(path, 3);
+  const occt::PartFace& face = part.faces[154];
+  ASSERT_EQ(face.name, "Face 155");
+  ASSERT_EQ(face.patch_count, 1);
+  // The face alone: its patch and its triangles (shared vertices kept shared).
+  Model model;
+  model.patches.push_back(part.model.patches[static_cast<size_t>(face.first_patch)]);
+  Tessellation mesh;
+  std::vector<int64_t> local(part.mesh.positions.size(), -1);
+  for (size_t t = 0; t < part.mesh.triangles.size(); ++t) {
+    if (part.triangle_face[t] != 154) continue;
+    Triangle tri;
+    for (int i = 0; i < 3; ++i) {
+      const uint32_t v = part.mesh.triangles[t][i];
+      if (local[v] < 0)
+        local[v] = static_cast<int64_t>(mesh.positions.size()), mesh.positions.push_back(part.mesh.positions[v]);
+      tri[i] = static_cast<uint32_t>(local[v]);
+    }
+    mesh.triangles.push_back(tri);
+    mesh.triangle_patch.push_back(0);
+    mesh.triangle_uv.push_back(part.mesh.triangle_uv[t]);
+  }
+  ASSERT_EQ(mesh.triangles.size(), 88u);
+  const DistanceReport report = certify_distance(model, mesh);
+  ASSERT_TRUE(report.hausdorff.certified) << report.not_certified_reason;
+  EXPECT_GT(report.hausdorff.lower, 1.7e-5);
+  EXPECT_LE(report.hausdorff.upper, 1.1 * report.hausdorff.lower);
+  // Leaves evaluated over all passes: 35,544 before (30,008 of them the first pass's), 4,824 now.
+  EXPECT_LT(report.leaves, 8000u);
+  std::cout << "bearing Face 155: [" << report.hausdorff.lower << ", " << report.hausdorff.upper << "], "
+            << report.leaves << " leaves\n";
+}
+
 // Free edges lie on their face: bearing.iges is 213 free faces (no edge shared) whose edges' 3D
 // curves lie up to 0.0019 off the faces (1.2 % of the part; the B-rep's tolerance says so). A free
 // edge's samples and vertices are taken on the face, S(p-curve(t)), so the mesh's boundary is on
