@@ -88,6 +88,22 @@ occt::PartMesh brepmesh(const std::string& path, double diagonal) {
 
 Vec3 to_vec(const gp_Pnt& p) { return Vec3(p.X(), p.Y(), p.Z()); }
 
+// The face's surface at segments + 1 evenly spaced points of each edge's p-curve (its boundary).
+std::vector<Vec3> edge_points(const TopoDS_Face& face, int segments) {
+  const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);
+  std::vector<Vec3> points;
+  for (TopExp_Explorer e(face, TopAbs_EDGE); e.More(); e.Next()) {
+    double first = 0, last = 0;
+    const Handle(Geom2d_Curve) c = BRep_Tool::CurveOnSurface(TopoDS::Edge(e.Current()), face, first, last);
+    if (c.IsNull()) continue;
+    for (int k = 0; k <= segments; ++k) {
+      const gp_Pnt2d w = c->Value(first + (last - first) * k / segments);
+      points.push_back(to_vec(surface->Value(w.X(), w.Y())));
+    }
+  }
+  return points;
+}
+
 // Points of the trimmed face from OCCT alone: its surface at a 24 x 24 grid over the face's (u, v)
 // bounds kept where OCCT classifies the point IN or ON the face, and at 17 points of each edge's
 // p-curve (the face's boundary).
@@ -104,16 +120,8 @@ std::vector<Vec3> face_points(const TopoDS_Face& face) {
       if (in.State() == TopAbs_IN || in.State() == TopAbs_ON) points.push_back(to_vec(surface->Value(u, v)));
     }
   }
-  constexpr int kEdge = 16;
-  for (TopExp_Explorer e(face, TopAbs_EDGE); e.More(); e.Next()) {
-    double first = 0, last = 0;
-    const Handle(Geom2d_Curve) c = BRep_Tool::CurveOnSurface(TopoDS::Edge(e.Current()), face, first, last);
-    if (c.IsNull()) continue;
-    for (int k = 0; k <= kEdge; ++k) {
-      const gp_Pnt2d w = c->Value(first + (last - first) * k / kEdge);
-      points.push_back(to_vec(surface->Value(w.X(), w.Y())));
-    }
-  }
+  const std::vector<Vec3> on_edges = edge_points(face, 16);
+  points.insert(points.end(), on_edges.begin(), on_edges.end());
   return points;
 }
 
@@ -411,16 +419,7 @@ double sampled_distance_to_face(const TopoDS_Face& face, const Vec3& x) {
       if (in.State() == TopAbs_IN || in.State() == TopAbs_ON) best = d;
     }
   }
-  constexpr int kEdge = 2000;
-  for (TopExp_Explorer e(face, TopAbs_EDGE); e.More(); e.Next()) {
-    double first = 0, last = 0;
-    const Handle(Geom2d_Curve) c = BRep_Tool::CurveOnSurface(TopoDS::Edge(e.Current()), face, first, last);
-    if (c.IsNull()) continue;
-    for (int k = 0; k <= kEdge; ++k) {
-      const gp_Pnt2d w = c->Value(first + (last - first) * k / kEdge);
-      best = std::min(best, glm::length(to_vec(surface->Value(w.X(), w.Y())) - x));
-    }
-  }
+  for (const Vec3& y : edge_points(face, 2000)) best = std::min(best, glm::length(y - x));
   return best;
 }
 
