@@ -1368,12 +1368,9 @@ void raise_lower_in_slivers(const occt::PartMesh& part, const Grid& g, const Mod
     double estimate;  // |p - x| for a point x of F (the branch and bound stops near it)
   };
   std::vector<VertexCandidate> vertex_candidates;
+  // The face's patch holding (U, V) (the grid's cell, clamped onto it) and the point's (s, t) there.
   const auto locate = [&](Vec2 uv, Vec2& st) {
-    const auto index = [](const std::vector<double>& breaks, double x) {
-      const auto it = std::upper_bound(breaks.begin() + 1, breaks.end() - 1, x);
-      return static_cast<size_t>(it - breaks.begin()) - 1;
-    };
-    const size_t i = index(f.u_breaks, uv.x), j = index(f.v_breaks, uv.y);
+    const size_t i = cell_span(f.u_breaks, uv.x, uv.x).first, j = cell_span(f.v_breaks, uv.y, uv.y).first;
     const double s = (uv.x - f.u_breaks[i]) / (f.u_breaks[i + 1] - f.u_breaks[i]);
     st = Vec2(f.reversed ? 1.0 - s : s, (uv.y - f.v_breaks[j]) / (f.v_breaks[j + 1] - f.v_breaks[j]));
     return static_cast<uint32_t>(i * g.nv + j);
