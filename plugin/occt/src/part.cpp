@@ -58,6 +58,8 @@
 #include <gp_Pnt2d.hxx>
 #include <gp_Vec.hxx>
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <chrono>
@@ -1248,14 +1250,26 @@ bool face_loops(PartBuilder& b, const FaceGeometry& g, std::vector<LoopPoint>& p
     }
     if (!merged) seen.push_back(p.q);
   }
+  std::vector<size_t> segment_range;  // per new segment: its range
+  const size_t first_segment = segments.size();
   for (size_t r = 0; r < ranges.size(); ++r) {
     for (uint32_t k = ranges[r].first + 1; k < ranges[r].second; ++k) {
       if (points[k].q != points[k - 1].q) {
         segments.push_back({k - 1, k});
         segment_edge.push_back(range_edge[r]);
-        if (chords) chords->push_back(bound_chord(g, range_curve[r], points[k - 1], points[k]));
+        segment_range.push_back(r);
       }
     }
+  }
+  if (chords) {
+    // Each chord's bound is a function of the face, the curve and its two points alone: in parallel
+    // (through a re-parametrised surface's map it is most of the part's meshing time).
+    const size_t first = chords->size();
+    chords->resize(first + segment_range.size());
+    tbb::parallel_for(size_t(0), segment_range.size(), [&](size_t s) {
+      const auto [i, k] = segments[first_segment + s];
+      (*chords)[first + s] = bound_chord(g, range_curve[segment_range[s]], points[i], points[k]);
+    });
   }
   pf.boundary_vertices = points.size();
   return true;
@@ -1882,6 +1896,20 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
     g.graded_segments = real_n > 0.0 ? std::min(real_n, double(g.segments)) : g.segments;
     tessellate_face_patches(g, scheme, options.graded_grids);
   }
+  // OCCT's checks of the solids (validity, volume) read the shape only: beside the meshing.
+  const std::vector<PartSolid> shells = solid_facts(x, false);  // closed or not: counted per pass
+  std::vector<PartSolid> solids;
+  tbb::task_group solid_checks;
+  struct WaitOnExit {
+    tbb::task_group& group;
+    ~WaitOnExit() {
+      try {
+        group.wait();
+      } catch (...) {  // unwinding already: the meshing's exception is the one reported
+      }
+    }
+  } wait_on_exit{solid_checks};
+  solid_checks.run([&] { solids = solid_facts(x, options.solid_facts); });
   std::vector<EdgePlan> plans;
   for (int e = 0; e < x.edges.Extent(); ++e) {
     budget::check("planning the part's edges");
@@ -1899,13 +1927,12 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
     build_edges(b);
     if (!split_crossing_chords(b, extra, faces)) break;
   }
-  const std::vector<PartSolid> solids = solid_facts(x, options.solid_facts);
   std::set<std::array<double, 9>> split_ears;
   for (int pass = 0;; ++pass) {
     out = PartMesh();
     out.name = name;
     out.model.name = name;
-    out.solids = solids;
+    out.solids = shells;
     PartBuilder b{options, x, geometry, out, {}, {}, {}, extra, {}, plans};
     b.split_ears = &split_ears;
     build_part(b);
@@ -1922,6 +1949,9 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
     if ((b.crossing.empty() && !new_ears) || pass == 8) break;
     for (const auto& [e, ts] : b.crossing) extra[e].insert(extra[e].end(), ts.begin(), ts.end());
   }
+  solid_checks.wait();
+  for (size_t k = 0; k < out.solids.size(); ++k)
+    out.solids[k].valid = solids[k].valid, out.solids[k].volume = solids[k].volume;
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }

@@ -12,6 +12,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <queue>
 #include <vector>
@@ -33,6 +35,57 @@ double segment_distance(const Vec2& p, const Vec2& a, const Vec2& b) {
 
 // A Bézier arc in homogeneous form: (w x, w y, w) per control point.
 using Arc = std::vector<glm::dvec3>;
+
+// Values of a one-dimensional function by exact argument (bit pattern), open addressing: the few
+// hundred values a chord's bounds ask for, without a heap node per value.
+class ExactMemo {
+ public:
+  // The stored value of x, or nullptr; `store` keeps a value for x.
+  const double* find(double x) const {
+    if (count_ == 0) return nullptr;
+    for (size_t i = slot(x);; i = (i + 1) & (keys_.size() - 1)) {
+      if (!used_[i]) return nullptr;
+      if (keys_[i] == bits(x)) return &values_[i];
+    }
+  }
+  void store(double x, double value) {
+    if (2 * (count_ + 1) > keys_.size()) grow();
+    for (size_t i = slot(x);; i = (i + 1) & (keys_.size() - 1)) {
+      if (!used_[i]) {
+        used_[i] = 1, keys_[i] = bits(x), values_[i] = value, ++count_;
+        return;
+      }
+      if (keys_[i] == bits(x)) return;  // the first value stays
+    }
+  }
+
+ private:
+  static uint64_t bits(double x) {
+    uint64_t b;
+    std::memcpy(&b, &x, sizeof b);
+    return b;
+  }
+  size_t slot(double x) const { return static_cast<size_t>((bits(x) * 0x9E3779B97F4A7C15ull) >> shift_); }
+  void grow() {
+    std::vector<uint64_t> keys = std::move(keys_);
+    std::vector<double> values = std::move(values_);
+    std::vector<uint8_t> used = std::move(used_);
+    const size_t size = keys.empty() ? 64 : 2 * keys.size();
+    shift_ = 64 - __builtin_ctzll(size);  // size is a power of two
+    keys_.assign(size, 0), values_.assign(size, 0.0), used_.assign(size, 0), count_ = 0;
+    for (size_t i = 0; i < keys.size(); ++i) {
+      if (!used[i]) continue;
+      double x;
+      std::memcpy(&x, &keys[i], sizeof x);
+      store(x, values[i]);
+    }
+  }
+  std::vector<uint64_t> keys_;
+  std::vector<double> values_;
+  std::vector<uint8_t> used_;
+  size_t count_ = 0;
+  int shift_ = 58;
+};
 
 Vec2 euclid(const glm::dvec3& h) { return Vec2(h.x / h.z, h.y / h.z); }
 
@@ -67,6 +120,31 @@ struct Bounder {
     return map.metric * (map.identity ? uv + map.shift : map.to_uv(uv + map.shift));
   }
 
+  // Through a non-identity map (separable: U depends on u alone, V on v alone), the mapped U of u
+  // (evaluated at the point (u, v)) and V of v (at (u, v)). A box's u-extremes recur in the boxes of
+  // its sub-arcs (a split point ends both halves), so each value is solved once per chord: the map
+  // is an iterative solve, most of a chord's cost.
+  double mapped_u(double u, double v) const {
+    if (const double* known = u_memo.find(u)) return *known;
+    const double U = mapped(Vec2(u, v)).x;
+    u_memo.store(u, U);
+    return U;
+  }
+  double mapped_v(double u, double v) const {
+    if (const double* known = v_memo.find(v)) return *known;
+    const double V = mapped(Vec2(u, v)).y;
+    v_memo.store(v, V);
+    return V;
+  }
+  // A curve point mapped (metric), its U and V kept for the boxes whose extremes it is (the split
+  // point of a sub-arc is an end of both halves).
+  Vec2 mapped_point(const Vec2& uv) const {
+    const Vec2 m = mapped(uv);
+    if (!map.identity) u_memo.store(uv.x, m.x), v_memo.store(uv.y, m.y);
+    return m;
+  }
+  mutable ExactMemo u_memo, v_memo;
+
   // Calls f(x) for each of the hull's points x (metric): the control points, or through a
   // non-identity map the corners of the hull's (u, v) box mapped corner by corner (monotone
   // coordinates; the map's own error, map_error(), is the caller's to add).
@@ -79,8 +157,8 @@ struct Bounder {
     Vec2 lo(kInf), hi(-kInf);
     for (const glm::dvec3& h : arc) lo = glm::min(lo, euclid(h)), hi = glm::max(hi, euclid(h));
     const Vec2 mid = 0.5 * (lo + hi);
-    const double u0 = mapped(Vec2(lo.x, mid.y)).x, u1 = mapped(Vec2(hi.x, mid.y)).x;
-    const double v0 = mapped(Vec2(mid.x, lo.y)).y, v1 = mapped(Vec2(mid.x, hi.y)).y;
+    const double u0 = mapped_u(lo.x, mid.y), u1 = mapped_u(hi.x, mid.y);
+    const double v0 = mapped_v(mid.x, lo.y), v1 = mapped_v(mid.x, hi.y);
     for (double U : {u0, u1}) {
       for (double V : {v0, v1}) f(Vec2(U, V));
     }
@@ -110,7 +188,9 @@ struct Bounder {
     });
     worst += map_error();
     if (!(worst > 0.0)) return 0.0;
-    if (depth >= 12 || !std::isfinite(worst)) return worst;
+    // Through a map, no halving brings the bound below the map's own error (an end sub-arc's hull
+    // starts at the chord's end): within twice that error it is final.
+    if (depth >= 12 || !std::isfinite(worst) || worst <= 2.0 * map_error()) return worst;
     auto [left, right] = halves(arc);
     return std::max(overshoot(left, depth + 1), overshoot(right, depth + 1));
   }
@@ -140,7 +220,7 @@ struct Bounder {
     double seen = 0.0;
     for (int nodes = 0;; nodes += 2) {
       const Node& top = open.top();
-      seen = std::max(seen, sign * glm::dot(mapped(midpoint(top.arc)) - a, left));
+      seen = std::max(seen, sign * glm::dot(mapped_point(midpoint(top.arc)) - a, left));
       if (!(top.hull > std::max(floor, enough)) || top.hull <= 1.1 * seen || nodes >= 2 * 32)
         return std::max(top.hull, 0.0);
       auto [l, r] = halves(top.arc);
@@ -168,7 +248,7 @@ struct Bounder {
     while (!open.empty()) {
       Node n = open.top();
       open.pop();
-      seen = std::max(seen, segment_distance(mapped(midpoint(n.arc)), a, b));
+      seen = std::max(seen, segment_distance(mapped_point(midpoint(n.arc)), a, b));
       if (!(n.hull > floor) || n.hull <= 1.1 * seen) return std::max(settled, n.hull);
       if (n.depth >= max_depth || nodes >= kNodeBudget) {
         settled = std::max(settled, n.hull);
@@ -211,7 +291,8 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
   // The map's own error is part of every hull bound through it and no split removes it: the floor
   // is at least twice that (a chord on an iso-line would otherwise be split to the node budget).
   const double map_error = map.identity ? 0.0 : map.to_uv_error * std::max(map.metric.x, map.metric.y);
-  const Bounder bounder{map, a, b, std::max(1e-9 * glm::length(b - a), 2.0 * map_error), map.identity ? 16 : 14};
+  const Bounder bounder{map, a, b, std::max(1e-9 * glm::length(b - a), 2.0 * map_error), map.identity ? 16 : 14,
+                        {},  {}};
   const double rounding = 1e-13 * scale;
   try {
     if (p0 == p1) {
