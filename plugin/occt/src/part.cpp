@@ -137,6 +137,10 @@ struct FaceGeometry {
   // (U, V) = (u, v): B-spline and Bézier faces, and planes (whose conversion keeps the parameters,
   // checked at 9 points); otherwise face_to_uv solves for (U, V).
   bool identity_map = true;
+  // Per patch span along U (V): tan(a / 2), a the span's half width, where OCCT converted a circle
+  // of angle u (v) into rational quadratic arcs (circle_spans); empty otherwise. face_to_uv's first
+  // guess then is the arcs' exact inverse, and its Newton steps only confirm it.
+  std::vector<double> u_arc_tan, v_arc_tan;
   // The scheme's tessellation of the face's patches (made once per part) and each of its vertices'
   // (U, V) (exact patch-grid values on the patches' sides).
   Tessellation scheme;
@@ -211,6 +215,8 @@ Vec2 face_to_uv(const FaceGeometry& g, double u, double v) {
   const auto [wv, shift_v] = wrap(v, vb.front(), vb.back(), g.v_period);
   double U = clamp(wu, ub.front(), ub.back()), V = clamp(wv, vb.front(), vb.back());
   if (g.converted.IsNull()) return Vec2(U + shift_u, V + shift_v);
+  if (!g.u_arc_tan.empty()) U = detail::circle_arc_parameter(ub, g.u_arc_tan, U);
+  if (!g.v_arc_tan.empty()) V = detail::circle_arc_parameter(vb, g.v_arc_tan, V);
   const gp_Pnt target = g.surface->Value(u, v);
   // Newton's steps shrink quadratically until rounding takes over; a step near rounding level that
   // no longer halves the previous one is noise (it would oscillate by an ulp for all 40 iterations).
@@ -304,6 +310,34 @@ bool keeps_parameters(const FaceGeometry& g) {
   return true;
 }
 
+// tan(a / 2) per patch span along U (along_u) or V, a the span's half width, when every patch is a
+// rational quadratic in that direction with weights w, w cos a, w (to 1e-12) on every row: OCCT's
+// conversion of a circle parametrised by its angle (Convert_TgtThetaOver2: knots at the angles).
+// Empty when any span differs or is wider than a half circle. Only face_to_uv's first guess uses it.
+std::vector<double> circle_spans(const FaceGeometry& g, bool along_u) {
+  const std::vector<double>& breaks = along_u ? g.report.u_breaks : g.report.v_breaks;
+  const int spans = along_u ? g.nu : g.nv;
+  std::vector<double> arc_tan;
+  for (int k = 0; k < spans; ++k) {
+    const double half = 0.5 * (breaks[k + 1] - breaks[k]);
+    if (!(half > 0.0 && half < 0.5 * M_PI)) return {};
+    const double c = std::cos(half);
+    for (int other = 0; other < (along_u ? g.nv : g.nu); ++other) {
+      const BezierPatch& p = g.patches[static_cast<size_t>(along_u ? k * g.nv + other : other * g.nv + k)];
+      if (p.weights.empty() || (along_u ? p.degree_u : p.degree_v) != 2) return {};
+      const int rows = (along_u ? p.degree_v : p.degree_u) + 1;
+      for (int r = 0; r < rows; ++r) {
+        const auto w = [&](int i) { return along_u ? p.weight(i, r) : p.weight(r, i); };
+        const double ends = w(0);
+        if (!(ends > 0.0) || std::abs(w(2) - ends) > 1e-12 * ends || std::abs(w(1) - c * ends) > 1e-12 * ends)
+          return {};
+      }
+    }
+    arc_tan.push_back(std::tan(0.5 * half));
+  }
+  return arc_tan;
+}
+
 FaceGeometry face_geometry(const ShapeIndex& x, int f, const std::string& name, const CadOptions& options) {
   FaceGeometry g;
   g.face = TopoDS::Face(x.faces(f + 1));
@@ -334,6 +368,10 @@ FaceGeometry face_geometry(const ShapeIndex& x, int f, const std::string& name, 
   }
   set_scale(g);
   g.identity_map = g.converted.IsNull() || keeps_parameters(g);
+  if (!g.identity_map) {
+    g.u_arc_tan = circle_spans(g, true);
+    g.v_arc_tan = circle_spans(g, false);
+  }
   return g;
 }
 

@@ -89,23 +89,26 @@ class ExactMemo {
 
 Vec2 euclid(const glm::dvec3& h) { return Vec2(h.x / h.z, h.y / h.z); }
 
-// de Casteljau at s = 1/2: the two halves.
+// de Casteljau at s = 1/2: the two halves. The levels are worked in place in `right`: level L's
+// last point stays at n - 1 - L, which is the right half's point there; the left half takes each
+// level's first. Only the two results are allocated.
 std::pair<Arc, Arc> halves(const Arc& arc) {
-  Arc work = arc, left, right;
   const size_t n = arc.size();
-  left.reserve(n), right.resize(n);
+  Arc left(n), right = arc;
   for (size_t level = 0; level < n; ++level) {
-    left.push_back(work[0]);
-    right[n - 1 - level] = work[n - 1 - level];
-    for (size_t k = 0; k + 1 < n - level; ++k) work[k] = 0.5 * (work[k] + work[k + 1]);
+    left[level] = right[0];
+    for (size_t k = 0; k + 1 < n - level; ++k) right[k] = 0.5 * (right[k] + right[k + 1]);
   }
-  return {left, right};
+  return {std::move(left), std::move(right)};
 }
 
 Vec2 midpoint(const Arc& arc) {
-  Arc work = arc;
-  for (size_t level = 1; level < work.size(); ++level) {
-    for (size_t k = 0; k + level < work.size(); ++k) work[k] = 0.5 * (work[k] + work[k + 1]);
+  glm::dvec3 work[32];
+  if (arc.size() > 32) return euclid(halves(arc).second.front());
+  const size_t n = arc.size();
+  std::copy(arc.begin(), arc.end(), work);
+  for (size_t level = 1; level < n; ++level) {
+    for (size_t k = 0; k + level < n; ++k) work[k] = 0.5 * (work[k] + work[k + 1]);
   }
   return euclid(work[0]);
 }
@@ -280,6 +283,16 @@ struct Bounder {
 };
 
 }  // namespace
+
+double circle_arc_parameter(const std::vector<double>& breaks, const std::vector<double>& arc_tan, double x) {
+  if (breaks.size() < 2 || arc_tan.size() + 1 != breaks.size() || !(x >= breaks.front() && x <= breaks.back()))
+    return x;
+  const size_t k = std::min(static_cast<size_t>(std::upper_bound(breaks.begin(), breaks.end(), x) - breaks.begin()),
+                            breaks.size() - 1) -
+                   1;
+  const double half = 0.5 * (breaks[k + 1] - breaks[k]), middle = breaks[k] + half;
+  return middle + half * (std::tan(0.5 * (x - middle)) / arc_tan[k]);
+}
 
 double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1, const ParameterMap& map,
                        const Vec2& a_uv, const Vec2& b_uv, ChordTrace* trace, double* overshoot, ChordSides* sides) {

@@ -23,7 +23,12 @@
 #include <Geom2d_BSplineCurve.hxx>
 #include <Geom2d_Line.hxx>
 #include <Geom2d_TrimmedCurve.hxx>
+#include <GeomConvert.hxx>
+#include <Geom_BSplineSurface.hxx>
 #include <Geom_CylindricalSurface.hxx>
+#include <Geom_RectangularTrimmedSurface.hxx>
+#include <Geom_SphericalSurface.hxx>
+#include <Geom_ToroidalSurface.hxx>
 #include <Poly_Triangulation.hxx>
 #include <TColgp_HArray1OfPnt2d.hxx>
 #include <TopExp.hxx>
@@ -438,6 +443,50 @@ TEST(Part, RefusesPnAndBadFiles) {
 // segments per side): OCCT cannot split so short a piece into Bézier arcs, so a wider piece around
 // it is bounded. The bound must be proven (finite) and hold: at least the distance of the piece's
 // middle point from the chord, and small against the piece's size.
+// face_to_uv's first guess on analytic faces: the closed-form inverse of OCCT's conversion of a circle
+// by its angle. Checked against GeomConvert itself on a cylinder (three spans), a sphere's latitude
+// (two) and a torus: the B-spline at the guessed parameter is the surface's point at that angle.
+TEST(PartChords, CircleArcParameterInvertsOcctsConversionOfTheAngle) {
+  struct Case {
+    Handle(Geom_Surface) surface;
+    double u0, u1, v0, v1, size;
+  };
+  const gp_Ax3 frame(gp_Pnt(1.0, -2.0, 0.5), gp_Dir(0.3, 0.4, 1.0));
+  const std::vector<Case> cases{{new Geom_CylindricalSurface(frame, 2.0), 0.3, 5.9, -1.0, 3.0, 2.0},
+                                {new Geom_SphericalSurface(frame, 1.5), 0.0, 2.0 * M_PI, -0.5 * M_PI, 0.5 * M_PI, 1.5},
+                                {new Geom_ToroidalSurface(frame, 3.0, 0.7), 1.0, 4.0, -2.0, 2.5, 3.7}};
+  for (const Case& c : cases) {
+    const Handle(Geom_BSplineSurface) bs =
+        GeomConvert::SurfaceToBSplineSurface(new Geom_RectangularTrimmedSurface(c.surface, c.u0, c.u1, c.v0, c.v1));
+    for (const bool along_u : {true, false}) {
+      const int knots = along_u ? bs->NbUKnots() : bs->NbVKnots();
+      if ((along_u ? bs->UDegree() : bs->VDegree()) != 2) continue;  // the cylinder's line
+      std::vector<double> breaks, arc_tan;
+      for (int k = 1; k <= knots; ++k) breaks.push_back(along_u ? bs->UKnot(k) : bs->VKnot(k));
+      for (size_t k = 0; k + 1 < breaks.size(); ++k) arc_tan.push_back(std::tan(0.25 * (breaks[k + 1] - breaks[k])));
+      // OCCT may move a periodic range whole periods (the torus's v: [-2, 2.5] -> [4.28, 8.78]); the
+      // other direction is held at a knot, where its B-spline parameter is its angle.
+      const double lo = along_u ? c.u0 : c.v0, hi = along_u ? c.u1 : c.v1;
+      const double shift = breaks.front() - lo;
+      EXPECT_NEAR(std::remainder(shift, 2.0 * M_PI), 0.0, 1e-12);  // knots at the angles
+      EXPECT_NEAR(breaks.back() - shift, hi, 1e-12);
+      const double other_knot = along_u ? bs->VKnot(2) : bs->UKnot(2);  // not a sphere's pole
+      const double other = other_knot - (along_u ? bs->VKnot(1) - c.v0 : bs->UKnot(1) - c.u0);
+      double identity_error = 0.0;
+      for (int i = 0; i <= 200; ++i) {
+        const double x = lo + (hi - lo) * i / 200.0;
+        const double X = detail::circle_arc_parameter(breaks, arc_tan, x + shift);
+        const gp_Pnt exact = along_u ? c.surface->Value(x, other) : c.surface->Value(other, x);
+        const gp_Pnt mapped = along_u ? bs->Value(X, other_knot) : bs->Value(other_knot, X);
+        const gp_Pnt same = along_u ? bs->Value(x + shift, other_knot) : bs->Value(other_knot, x + shift);
+        EXPECT_LE(exact.Distance(mapped), 1e-13 * c.size) << "along " << (along_u ? "u" : "v") << " at " << x;
+        identity_error = std::max(identity_error, exact.Distance(same));
+      }
+      EXPECT_GT(identity_error, 1e-3 * c.size);  // the conversion does re-parametrise the angle
+    }
+  }
+}
+
 TEST(PartChords, ChordsShorterThanOcctsParameterConfusionAreStillBounded) {
   Handle(TColgp_HArray1OfPnt2d) points = new TColgp_HArray1OfPnt2d(1, 12);
   for (int k = 1; k <= 12; ++k) {
