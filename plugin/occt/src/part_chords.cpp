@@ -24,6 +24,11 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kNodeBudget = 512;  // sub-arcs split per Bézier piece of a chord's curve
+// Through a non-identity map a sub-arc's bound is its mapped box, which shrinks linearly with the
+// sub-arc (not quadratically like a hull): a deeper search and a larger budget, paid for by the
+// map's memo (each split solves about one new value).
+constexpr int kMappedNodeBudget = 8 * kNodeBudget;
+constexpr int kMappedDepth = 20;
 constexpr int kTraceDepth = 8;    // halvings per Bézier piece for ChordTrace
 
 double segment_distance(const Vec2& p, const Vec2& a, const Vec2& b) {
@@ -253,7 +258,7 @@ struct Bounder {
       open.pop();
       seen = std::max(seen, segment_distance(mapped_point(midpoint(n.arc)), a, b));
       if (!(n.hull > floor) || n.hull <= 1.1 * seen) return std::max(settled, n.hull);
-      if (n.depth >= max_depth || nodes >= kNodeBudget) {
+      if (n.depth >= max_depth || nodes >= (map.identity ? kNodeBudget : kMappedNodeBudget)) {
         settled = std::max(settled, n.hull);
         continue;
       }
@@ -304,8 +309,8 @@ double chord_deviation(const Handle(Geom2d_Curve) & pcurve, double p0, double p1
   // The map's own error is part of every hull bound through it and no split removes it: the floor
   // is at least twice that (a chord on an iso-line would otherwise be split to the node budget).
   const double map_error = map.identity ? 0.0 : map.to_uv_error * std::max(map.metric.x, map.metric.y);
-  const Bounder bounder{map, a, b, std::max(1e-9 * glm::length(b - a), 2.0 * map_error), map.identity ? 16 : 14,
-                        {},  {}};
+  const Bounder bounder{
+      map, a, b, std::max(1e-9 * glm::length(b - a), 2.0 * map_error), map.identity ? 16 : kMappedDepth, {}, {}};
   const double rounding = 1e-13 * scale;
   try {
     if (p0 == p1) {
