@@ -26,6 +26,13 @@ struct ParameterMap {
   Vec2 metric{1.0};  // distances are measured with U scaled by metric.x and V by metric.y
 };
 
+// The B-spline parameter of the point at angle x on OCCT's conversion of a circle parametrised by its
+// angle (Convert_TgtThetaOver2): rational quadratic arcs with knots at the angles `breaks`, span k of
+// half width a (arc_tan[k] = tan(a / 2)) and weights 1, cos a, 1. With m the span's middle,
+// tan((x - m) / 2) = t tan(a / 2) at the arc's parameter t in [-1, 1]. Exact up to rounding; x itself
+// outside the breaks.
+double circle_arc_parameter(const std::vector<double>& breaks, const std::vector<double>& arc_tan, double x);
+
 // Upper bound of max over p in [p0, p1] of dist(map(pcurve(p)), segment [a, b]) (both scaled by
 // map.metric), from the convex hull of the curve's Bézier pieces (OCCT's exact conversion; rational
 // pieces need positive weights), split best-first until the largest hull is within 10 % of the
@@ -40,13 +47,6 @@ struct ParameterMap {
 // within the straight-curve floor of its chord (1e-9 of its length), or through a non-identity
 // map, is traced by the chord itself (its deviation); left with the two end points and +infinity
 // when the deviation is not proven.
-// The B-spline parameter of the point at angle x on OCCT's conversion of a circle parametrised by its
-// angle (Convert_TgtThetaOver2): rational quadratic arcs with knots at the angles `breaks`, span k of
-// half width a (arc_tan[k] = tan(a / 2)) and weights 1, cos a, 1. With m the span's middle,
-// tan((x - m) / 2) = t tan(a / 2) at the arc's parameter t in [-1, 1]. Exact up to rounding; x itself
-// outside the breaks.
-double circle_arc_parameter(const std::vector<double>& breaks, const std::vector<double>& arc_tan, double x);
-
 struct ChordTrace {
   std::vector<Vec2> points;
   double deviation = std::numeric_limits<double>::infinity();
