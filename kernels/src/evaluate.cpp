@@ -4,6 +4,7 @@
 
 #include <glm/geometric.hpp>
 
+#include <array>
 #include <cmath>
 #include <type_traits>
 
@@ -13,11 +14,28 @@
 
 namespace sagitta {
 
-double binomial(int n, int k) {
-  if (k < 0 || k > n) return 0.0;
+namespace {
+
+double binomial_computed(int n, int k) {
   double r = 1.0;
   for (int i = 1; i <= k; ++i) r = r * (n - k + i) / i;
   return std::round(r);
+}
+
+}  // namespace
+
+double binomial(int n, int k) {
+  if (k < 0 || k > n) return 0.0;
+  // The degrees a patch can have, tabulated once (every matrix-form evaluator asks for them).
+  static const auto table = [] {
+    std::array<std::array<double, kMaxDegree + 1>, kMaxDegree + 1> t{};
+    for (int a = 0; a <= kMaxDegree; ++a) {
+      for (int b = 0; b <= a; ++b) t[static_cast<size_t>(a)][static_cast<size_t>(b)] = binomial_computed(a, b);
+    }
+    return t;
+  }();
+  if (n <= kMaxDegree) return table[static_cast<size_t>(n)][static_cast<size_t>(k)];
+  return binomial_computed(n, k);
 }
 
 template <class T>

@@ -77,6 +77,10 @@ class PatchEvaluator {
     return origin_ + Vec3(h[0], h[1], h[2]) / h[3];
   }
 
+  // The (n+1) x (m+1) homogeneous coefficients K_ij (row-major, i over u), in the basis of
+  // uses_power_basis(): what contract_u multiplies the u-basis row with.
+  const std::array<double, 4>* coefficients() const { return k_.data(); }
+
   // Convenience: full evaluation at one (u, v).
   SurfacePointEval evaluate(double u, double v) const;
   Vec3 position(double u, double v) const { return evaluate(u, v).position; }

@@ -38,6 +38,19 @@ void tessellate_uniform_grid(const Model& model, int segments, double* xyz);
 // v-basis tables for `segments`), kept for repeated tessellation of one model, as a renderer does
 // every frame. run() writes exactly what tessellate_uniform_grid writes. Throws InputError for
 // segments < 1.
+namespace detail {
+// The grid kernels, in increasing order of the instruction sets they need: portable C++ (also
+// compiled for AVX2 by target_clones), AVX2 intrinsics, AVX-512 intrinsics (v-degrees 1 to 3 in
+// the power basis; other patches always take the portable one). All write the same bits.
+enum class GridKernel { kGeneric = 0, kAvx2 = 1, kAvx512 = 2 };
+GridKernel best_grid_kernel();  // the best this CPU runs (the default)
+GridKernel grid_kernel();       // the one in use
+// For tests and measurements: use `kernel` from now on (process-wide). False, and nothing changes,
+// when this CPU cannot run it.
+bool force_grid_kernel(GridKernel kernel);
+void reset_grid_kernel();
+}  // namespace detail
+
 class UniformGridPlan {
  public:
   UniformGridPlan(const Model& model, int segments);
@@ -53,7 +66,8 @@ class UniformGridPlan {
   int segments_;
   std::vector<detail::PatchEvaluator> evals_;
   std::vector<char> unit_weight_;  // per patch: polynomial in the power basis (no division needed)
-  std::vector<const double*> tables_;  // per patch: its v-basis table
+  std::vector<const double*> tables_;    // per patch: its v-basis table (basis-major)
+  std::vector<const double*> u_tables_;  // per patch: its u-basis table (row-major)
   std::vector<std::vector<double>> table_store_;
 };
 
