@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -86,8 +87,20 @@ void decide_edge(const Vec3* S, const Vec3& A, const Vec3& B, int P, double rho,
 
 struct Node {
   uint32_t id;
-  int a, b;    // lattice point (a VV keeps its own lattice point, in another row)
-  double pos;  // normalised position along its row, 0..1
+  int a, b;          // lattice point (a VV keeps its own lattice point, in another row)
+  int16_t num, den;  // position along its row, num / den in 0..1 (c / k; 0 / 1 on the apex row)
+};
+
+// Whether p's position along its row is at or before q's: the exact comparison of the fractions
+// (equal to comparing the rounded quotients, as denominators are at most kMaxEscLevel + 1).
+inline bool at_or_before(const Node& p, const Node& q) { return p.num * q.den <= q.num * p.den; }
+
+// One row of the pattern: at most kMaxEscLevel + 2 nodes.
+struct Row {
+  Node nodes[kMaxEscLevel + 2];
+  size_t n = 0;
+  size_t size() const { return n; }
+  const Node& operator[](size_t i) const { return nodes[i]; }
 };
 
 // Twice the signed area of (p, q, r) in lattice units; > 0 is counter-clockwise in (u, v).
@@ -111,15 +124,30 @@ struct PatchOutput {
   std::vector<uint32_t> side_ids;  // side vertex ids its triangles and strips use (with repeats)
 };
 
+inline Vec2 node_uv(const Lattice& lat, const Node& n) { return Vec2(lat.u(n.a), lat.v(n.b)); }
+
+// The copy path's sink: a patch's triangles and strips into its own PatchOutput (patch-local ids).
+struct BufferSink {
+  PatchOutput& out;
+  bool surface_data;
+  void triangle(const Lattice& lat, const Node& p, const Node& q, const Node& r) {
+    out.triangles.push_back({p.id, q.id, r.id});
+    if (surface_data) out.uv.push_back({node_uv(lat, p), node_uv(lat, q), node_uv(lat, r)});
+  }
+  void strip(const uint32_t* first, const uint32_t* last) { out.strips.push_back(first, last); }
+  void degenerate() { ++out.degenerate; }
+};
+
 // Per-thread working arrays of the per-patch pass, reused from patch to patch.
 struct Scratch {
   std::vector<uint8_t> mask;
   std::vector<SurfacePointEval> ev;
   std::vector<uint32_t> ids;
-  std::vector<Node> upper;
-  std::vector<Node> lower;
+  Row upper, lower;
   std::vector<uint32_t> strip;
   std::vector<uint32_t> side_ids;
+  std::vector<double> bv, dbv;    // v-basis rows of the lattice columns (direct path)
+  std::vector<uint8_t> own_used;  // which own vertices the strips use (direct path)
 };
 
 // Throws InputError, saying why, for parameters outside their ranges or a topology of another model.
@@ -319,8 +347,12 @@ Counts decide_coarse_edges(const EscInput& in, const PatchState& ps) {
   Counts counts;
   Vec3 S[kMaxEscLevel + 2];
   uint8_t ins[kMaxEscLevel + 2];
+  // At rho = 0 every candidate is inserted without looking at the surface (which may not be evaluated).
+  const bool needs_surface = ps.rho > 0.0;
   auto decide = [&](int a0, int b0, int da, int db, const Vec3& A, const Vec3& B) {
-    for (int s = 0; s <= P; ++s) S[s] = ev[static_cast<size_t>(lat.index(a0 + s * da, b0 + s * db))].position;
+    if (needs_surface) {
+      for (int s = 0; s <= P; ++s) S[s] = ev[static_cast<size_t>(lat.index(a0 + s * da, b0 + s * db))].position;
+    }
     decide_edge(S, A, B, P, ps.rho, in.params.per_edge_levels, ins);
     for (int s = 1; s < P; ++s) {
       ps.mask(a0 + s * da, b0 + s * db) = ins[s];
@@ -470,15 +502,20 @@ struct CoarseTriangle {
 // would be the same vertex at another lattice point, and the zipper, placing it there,
 // fanned one triangle from it in two strips (the same triangle twice).
 // Returns whether the row is complete: all k + 1 points inserted, none substituted or left out.
-bool build_row(const PatchState& ps, const CoarseTriangle& ct, int k, std::vector<Node>& row) {
+bool build_row(const PatchState& ps, const CoarseTriangle& ct, int k, Row& row) {
   const int P = ct.P;
-  row.clear();
+  const int cols = ps.lat.cols;
+  const uint8_t* mask = ps.sc.mask.data();
+  const uint32_t* ids = ps.sc.ids.data();
+  const int16_t den = static_cast<int16_t>(k == 0 ? 1 : k);
+  int a0, b0;
+  ct.point(k, 0, a0, b0);
+  const int step = ct.tri == 0 ? 1 : -1;  // (a, b) moves by (step, step) from one c to the next
+  size_t n = 0;
   bool complete = true;
   for (int c = 0; c <= k; ++c) {
-    int a, b;
-    ct.point(k, c, a, b);
-    const double pos = k == 0 ? 0.0 : static_cast<double>(c) / k;
-    if (!ps.inserted(a, b) && !ps.on_collapsed_side(a, b)) {
+    int a = a0 + step * c, b = b0 + step * c;
+    if (!mask[a * cols + b] && !ps.on_collapsed_side(a, b)) {
       complete = false;
       if (c != 0 && c != k) continue;  // only base-row candidates can be missing here
       const bool left = c == 0;
@@ -496,8 +533,9 @@ bool build_row(const PatchState& ps, const CoarseTriangle& ct, int k, std::vecto
         if (found) break;
       }
     }
-    row.push_back({ps.sc.ids[static_cast<size_t>(ps.lat.index(a, b))], a, b, pos});
+    row.nodes[n++] = {ids[a * cols + b], a, b, static_cast<int16_t>(c), den};
   }
+  row.n = n;
   return complete;
 }
 
@@ -516,39 +554,36 @@ bool row_present(const PatchState& ps, const CoarseTriangle& ct, int k) {
 // the zipper alternates, lower row first, never repeats a vertex and never flips a triangle, so
 // this writes the same strip (lower 0, upper 0, lower 1, upper 1, ..., upper k-1, lower k) and the
 // same triangles in the same order without its tests.
-void zip_regular_band(const Lattice& lat, const std::vector<Node>& upper, const std::vector<Node>& lower,
-                      bool surface_data, PatchOutput& out) {
+template <class Sink>
+void zip_regular_band(const Lattice& lat, const Row& upper, const Row& lower, Sink& out) {
   const size_t k = upper.size();
-  const auto uv = [&lat](const Node& n) { return Vec2(lat.u(n.a), lat.v(n.b)); };
-  const auto emit = [&](const Node& p, const Node& q, const Node& r) {
-    out.triangles.push_back({p.id, q.id, r.id});
-    if (surface_data) out.uv.push_back({uv(p), uv(q), uv(r)});
-  };
   for (size_t c = 0; c < k; ++c) {
-    emit(lower[c], upper[c], lower[c + 1]);
-    if (c + 1 < k) emit(lower[c + 1], upper[c], upper[c + 1]);
+    out.triangle(lat, lower[c], upper[c], lower[c + 1]);
+    if (c + 1 < k) out.triangle(lat, lower[c + 1], upper[c], upper[c + 1]);
   }
-  uint32_t* strip = out.strips.append(2 * k + 1);
+  uint32_t strip[2 * (kMaxEscLevel + 1) + 1];
   for (size_t c = 0; c < k; ++c) {
     strip[2 * c] = lower[c].id;
     strip[2 * c + 1] = upper[c].id;
   }
   strip[2 * k] = lower[k].id;
+  out.strip(strip, strip + 2 * k + 1);
 }
 
 // Zip the two rows into one strip: advance along the row whose next vertex comes first
 // (ties: the upper row); when two consecutive vertices come from the same row, the
 // other row's current vertex is replicated (rule 4), which keeps the strip's parity.
 // The strip is kept when it has a triangle; its non-degenerate triangles go to `out`.
-void zip_rows(const Lattice& lat, const std::vector<Node>& upper, const std::vector<Node>& lower, bool surface_data,
-              std::vector<uint32_t>& strip, PatchOutput& out) {
+template <class Sink>
+void zip_rows(const Lattice& lat, const Row& upper, const Row& lower, std::vector<uint32_t>& strip, Sink& out) {
   strip.clear();
   strip.push_back(lower[0].id);
   strip.push_back(upper[0].id);
   bool last_upper = true;
   size_t ui = 0, di = 0, emitted = 0;
   while (ui + 1 < upper.size() || di + 1 < lower.size()) {
-    bool advance_upper = di + 1 >= lower.size() || (ui + 1 < upper.size() && upper[ui + 1].pos <= lower[di + 1].pos);
+    bool advance_upper =
+        di + 1 >= lower.size() || (ui + 1 < upper.size() && at_or_before(upper[ui + 1], lower[di + 1]));
     // Where a virtual vertex bends a row onto a coarse edge, the positional choice can make a
     // flat or flipped triangle; the other choice is then the valid one (exact lattice test).
     if (ui + 1 < upper.size() && di + 1 < lower.size()) {
@@ -574,12 +609,9 @@ void zip_rows(const Lattice& lat, const std::vector<Node>& upper, const std::vec
     const bool same_point = (d.a == u.a && d.b == u.b) || (d.a == x.a && d.b == x.b) || (u.a == x.a && u.b == x.b);
     if (!same_point) {
       if (d.id == u.id || d.id == x.id || u.id == x.id) {
-        ++out.degenerate;  // distinct pattern points on a collapsed side
+        out.degenerate();  // distinct pattern points on a collapsed side
       } else {
-        out.triangles.push_back({d.id, u.id, x.id});
-        if (surface_data) {
-          out.uv.push_back({Vec2(lat.u(d.a), lat.v(d.b)), Vec2(lat.u(u.a), lat.v(u.b)), Vec2(lat.u(x.a), lat.v(x.b))});
-        }
+        out.triangle(lat, d, u, x);
         ++emitted;
       }
     }
@@ -589,28 +621,29 @@ void zip_rows(const Lattice& lat, const std::vector<Node>& upper, const std::vec
       ++di;
     }
   }
-  if (emitted > 0) out.strips.push_back(strip.begin(), strip.end());
+  if (emitted > 0) out.strip(strip.data(), strip.data() + strip.size());
 }
 
 // The strips and triangles of every coarse triangle, band by band from the apex to the base.
 // `distinct_side_ids`: number_vertices' result (regular bands may skip the zipper's tests).
-void build_strips(const EscInput& in, const PatchState& ps, bool distinct_side_ids, PatchOutput& out) {
+template <class Sink>
+void build_strips(const EscInput& in, const PatchState& ps, bool distinct_side_ids, Sink& out) {
   const Lattice& lat = ps.lat;
-  std::vector<Node>& upper = ps.sc.upper;
-  std::vector<Node>& lower = ps.sc.lower;
+  Row* upper = &ps.sc.upper;
+  Row* lower = &ps.sc.lower;
   for (int i = 0; i < lat.n; ++i) {
     for (int j = 0; j < lat.m; ++j) {
       for (int tri = 0; tri < 2; ++tri) {
         const CoarseTriangle ct{in.P, tri, i, j};
-        bool upper_complete = build_row(ps, ct, 0, upper);
+        bool upper_complete = build_row(ps, ct, 0, *upper);
         int upper_k = 0;
         for (int k = 1; k <= in.P; ++k) {
           if (!row_present(ps, ct, k)) continue;
-          const bool lower_complete = build_row(ps, ct, k, lower);
+          const bool lower_complete = build_row(ps, ct, k, *lower);
           if (distinct_side_ids && upper_complete && lower_complete && upper_k + 1 == k) {
-            zip_regular_band(lat, upper, lower, in.params.surface_data, out);
+            zip_regular_band(lat, *upper, *lower, out);
           } else {
-            zip_rows(lat, upper, lower, in.params.surface_data, ps.sc.strip, out);
+            zip_rows(lat, *upper, *lower, ps.sc.strip, out);
           }
           std::swap(upper, lower);
           upper_complete = lower_complete;
@@ -641,19 +674,26 @@ void mark_used(PatchOutput& out) {
   }
 }
 
+// Patch p's lattice and sides, working in `sc`.
+PatchState patch_state(const EscInput& in, size_t p, Scratch& sc) {
+  const BezierPatch& patch = in.model.patches[p];
+  Lattice lat;
+  lat.P = in.P;
+  lat.n = patch.degree_u;
+  lat.m = patch.degree_v;
+  lat.cols = lat.m * in.P + 1;
+  PatchState ps{patch, static_cast<uint32_t>(p), patch_rho(in.params, p), lat, lat.n * in.P, lat.m * in.P, {}, sc};
+  for (Side side : kAllSides) ps.collapsed[static_cast<int>(side)] = in.topology.side(ps.pid, side).collapsed;
+  return ps;
+}
+
 // 2. One patch: the insertion mask on its lattice (coarse-edge tests, then rows), the vertices
 // strictly inside the patch (patch-local numbering), and the strips and triangles of every coarse
 // triangle. Returns the candidates its own coarse edges decided.
 Counts tessellate_patch(const EscInput& in, size_t p, Scratch& sc, PatchOutput& out) {
-  const BezierPatch& patch = in.model.patches[p];
   const int P = in.P;
-  Lattice lat;
-  lat.P = P;
-  lat.n = patch.degree_u;
-  lat.m = patch.degree_v;
-  lat.cols = lat.m * P + 1;
-  PatchState ps{patch, static_cast<uint32_t>(p), patch_rho(in.params, p), lat, lat.n * P, lat.m * P, {}, sc};
-  for (Side side : kAllSides) ps.collapsed[static_cast<int>(side)] = in.topology.side(ps.pid, side).collapsed;
+  const PatchState ps = patch_state(in, p, sc);
+  const Lattice& lat = ps.lat;
 
   mark_sides(in, ps);
   evaluate_lattice(ps, in.params.normals);
@@ -668,7 +708,8 @@ Counts tessellate_patch(const EscInput& in, size_t p, Scratch& sc, PatchOutput& 
   out.strips.reserve(static_cast<size_t>(2 * lat.n * lat.m * P),
                      static_cast<size_t>(2 * lat.n * lat.m * P * (2 * P + 4)));
   const bool distinct_side_ids = number_vertices(in, ps, out);
-  build_strips(in, ps, distinct_side_ids, out);
+  BufferSink sink{out, in.params.surface_data};
+  build_strips(in, ps, distinct_side_ids, sink);
   mark_used(out);
   return counts;
 }
@@ -791,6 +832,374 @@ void fill_stats(const Topology& topology, const Sides& sides, int P, const std::
   stats.strips = strips;
 }
 
+// ---- The direct path: every patch writes its vertices, triangles and strips in place ----
+//
+// Pass 1 decides each patch's insertion mask (kept, one byte per lattice point), counts its own
+// vertices and bounds its triangles and strips from the mask (exactly, for regular bands); the side
+// vertices some patch inserted are predicted to be used. Pass 2 numbers the vertices with their
+// final ids and writes everything in place, recording which vertices its strips use. Where a
+// prediction fails (a vertex no strip uses, an unpredicted one used: only around collapsed sides)
+// the result is discarded and the copy path runs, so both paths give the same bits.
+
+struct PatchPlan {
+  uint64_t mask_offset = 0;                           // where the patch's mask is kept
+  uint32_t own_vertices = 0;                          // inserted lattice points strictly inside the patch
+  uint64_t triangles = 0, strips = 0, strip_ids = 0;  // upper bounds, exact for regular bands
+  bool distinct_side_ids = false;
+  Counts counts;
+};
+
+// number_vertices' result without listing the ids (conservative: false when two sides share an
+// edge or two corners a corner class, even where the side samples happen to be distinct).
+bool side_ids_distinct(const EscInput& in, const PatchState& ps) {
+  int32_t edges[4];
+  uint32_t corners[4];
+  for (int s = 0; s < 4; ++s) {
+    const Topology::SideInfo& info = in.topology.side(ps.pid, kAllSides[static_cast<size_t>(s)]);
+    if (info.collapsed) return false;
+    edges[s] = info.edge;
+    corners[s] = in.topology.corner_class[ps.pid * 4 + static_cast<uint32_t>(s)];
+  }
+  for (int s = 0; s < 4; ++s) {
+    for (int t = s + 1; t < 4; ++t) {
+      if (edges[s] == edges[t] || corners[s] == corners[t]) return false;
+    }
+  }
+  return true;
+}
+
+// Calls f(a, b, id) for every lattice point on the patch's sides (corners more than once).
+template <class F>
+void for_each_side_point(const EscInput& in, const PatchState& ps, F&& f) {
+  const BoundaryLayout& layout = in.sides.layout;
+  for (int k = 0; k <= ps.mb; ++k) {
+    f(0, k, side_vertex(layout, in.topology, ps.pid, Side::kU0, k));
+    f(ps.na, k, side_vertex(layout, in.topology, ps.pid, Side::kU1, k));
+  }
+  for (int k = 0; k <= ps.na; ++k) {
+    f(k, 0, side_vertex(layout, in.topology, ps.pid, Side::kV0, k));
+    f(k, ps.mb, side_vertex(layout, in.topology, ps.pid, Side::kV1, k));
+  }
+}
+
+// Pass 1 for patch p: the mask (into `masks` at plan.mask_offset), the counts and bounds, and the
+// side vertices it inserts marked in `side_inserted`.
+void plan_patch(const EscInput& in, size_t p, Scratch& sc, uint8_t* masks,
+                std::vector<std::atomic<uint8_t>>& side_inserted, PatchPlan& plan) {
+  const int P = in.P;
+  const PatchState ps = patch_state(in, p, sc);
+  mark_sides(in, ps);
+  if (ps.rho > 0.0) evaluate_lattice(ps, in.params.normals);
+  plan.counts = decide_coarse_edges(in, ps);
+  force_collapsed_corners(P, ps, plan.counts);
+  fill_rows(P, ps);
+  std::copy(sc.mask.begin(), sc.mask.end(), masks + plan.mask_offset);
+  for_each_side_point(in, ps, [&](int a, int b, uint32_t id) {
+    if (ps.inserted(a, b)) side_inserted[id].store(1, std::memory_order_relaxed);
+  });
+  uint32_t own = 0;
+  for (int a = 1; a < ps.na; ++a) {
+    for (int b = 1; b < ps.mb; ++b) own += ps.mask(a, b);
+  }
+  plan.own_vertices = own;
+  plan.distinct_side_ids = side_ids_distinct(in, ps);
+  // The zipper steps once per node after the first of each row and emits at most one triangle per
+  // step; its strip holds 2 ids plus at most 2 per step, exactly 2k + 1 on a regular band.
+  const auto node = [&](int a, int b) { return ps.inserted(a, b) || ps.on_collapsed_side(a, b); };
+  for (int i = 0; i < ps.lat.n; ++i) {
+    for (int j = 0; j < ps.lat.m; ++j) {
+      for (int tri = 0; tri < 2; ++tri) {
+        const CoarseTriangle ct{P, tri, i, j};
+        int a, b;
+        ct.point(0, 0, a, b);
+        bool upper_complete = node(a, b);
+        uint64_t upper_len = 1;
+        int upper_k = 0;
+        for (int k = 1; k <= P; ++k) {
+          if (!row_present(ps, ct, k)) continue;
+          uint64_t len = 2;
+          ct.point(k, 0, a, b);
+          bool complete = node(a, b);
+          ct.point(k, k, a, b);
+          complete = complete && node(a, b);
+          for (int c = 1; c < k; ++c) {
+            ct.point(k, c, a, b);
+            if (node(a, b)) {
+              ++len;
+            } else {
+              complete = false;
+            }
+          }
+          const uint64_t steps = upper_len + len - 2;
+          plan.triangles += steps;
+          plan.strips += 1;
+          const bool regular = plan.distinct_side_ids && upper_complete && complete && upper_k + 1 == k;
+          plan.strip_ids += regular ? static_cast<uint64_t>(2 * k + 1) : 2 + 2 * steps;
+          upper_complete = complete;
+          upper_len = len;
+          upper_k = k;
+        }
+      }
+    }
+  }
+}
+
+// Where the patches write: running sums of the plans (one past the end last).
+struct DirectOffsets {
+  std::vector<uint64_t> vertex, tri, strip, strip_index;
+};
+
+// Pass 2's sink: triangles and strips straight into the result at the patch's slots, never past
+// their bounds; records which vertices the kept strips use.
+struct DirectSink {
+  Triangle* tri;
+  std::array<Vec2, 3>* uv;  // null without surface data
+  uint32_t* tri_patch;      // null without surface data
+  uint32_t pid;
+  uint64_t tri_n = 0, tri_cap;
+  uint32_t* ids;
+  uint64_t ids_n = 0, ids_cap, ids_at;  // ids_at: index of ids[0] in the whole list
+  uint64_t* ends;                       // ends[s] is where strip s ends
+  uint64_t strips_n = 0, strips_cap;
+  uint64_t degenerates = 0;
+  bool failed = false;
+  uint32_t side_used_end, own_base, own_count;
+  std::vector<std::atomic<uint8_t>>* side_used;
+  std::vector<uint8_t>* own_used;
+
+  void triangle(const Lattice& lat, const Node& p, const Node& q, const Node& r) {
+    if (tri_n == tri_cap) {
+      failed = true;
+      return;
+    }
+    tri[tri_n] = {p.id, q.id, r.id};
+    if (uv) {
+      uv[tri_n] = {node_uv(lat, p), node_uv(lat, q), node_uv(lat, r)};
+      tri_patch[tri_n] = pid;
+    }
+    ++tri_n;
+  }
+  void strip(const uint32_t* first, const uint32_t* last) {
+    const uint64_t n = static_cast<uint64_t>(last - first);
+    if (ids_n + n > ids_cap || strips_n == strips_cap) {
+      failed = true;
+      return;
+    }
+    for (const uint32_t* id = first; id != last; ++id) {
+      if (*id < side_used_end) {
+        (*side_used)[*id].store(1, std::memory_order_relaxed);
+      } else if (*id - own_base < own_count) {
+        (*own_used)[*id - own_base] = 1;
+      } else {
+        failed = true;  // a side vertex pass 1 did not predict
+      }
+    }
+    std::copy(first, last, ids + ids_n);
+    ids_n += n;
+    ends[strips_n++] = ids_at + ids_n;
+  }
+  void degenerate() { ++degenerates; }
+};
+
+// Pass 2, number_vertices with final ids: side points take their predicted final id
+// (UINT32_MAX where not predicted), inserted points strictly inside get own_base + their rank in
+// (a, b) order, with their position (normal, surface point) written to the result.
+void number_final(const EscInput& in, const PatchState& ps, const std::vector<uint32_t>& side_final, uint32_t own_base,
+                  Tessellation& result) {
+  const Lattice& lat = ps.lat;
+  const int na = ps.na, mb = ps.mb;
+  std::vector<uint32_t>& ids = ps.sc.ids;
+  ids.assign(ps.sc.mask.size(), UINT32_MAX);
+  for_each_side_point(in, ps,
+                      [&](int a, int b, uint32_t id) { ids[static_cast<size_t>(lat.index(a, b))] = side_final[id]; });
+  const BezierPatch& patch = ps.patch;
+  const detail::PatchEvaluator eval(patch);
+  const int du = patch.degree_u, dv = patch.degree_v;
+  const bool normals = in.params.normals;
+  std::vector<double>& bv = ps.sc.bv;
+  std::vector<double>& dbv = ps.sc.dbv;
+  bv.resize(static_cast<size_t>((mb + 1) * (dv + 1)));
+  dbv.resize(bv.size());
+  for (int b = 0; b <= mb; ++b) {
+    eval.basis_row(dv, lat.v(b), &bv[static_cast<size_t>(b * (dv + 1))], &dbv[static_cast<size_t>(b * (dv + 1))]);
+  }
+  double a_row[kMaxDegree + 1], da_row[kMaxDegree + 1];
+  std::array<double, 4> row[kMaxDegree + 1], drow[kMaxDegree + 1];
+  uint32_t next = own_base;
+  for (int a = 1; a < na; ++a) {
+    const uint8_t* mask_row = &ps.sc.mask[static_cast<size_t>(lat.index(a, 0))];
+    if (std::find(mask_row + 1, mask_row + mb, uint8_t{1}) == mask_row + mb) continue;
+    eval.basis_row(du, lat.u(a), a_row, da_row);
+    if (normals) {
+      eval.contract_u(a_row, da_row, row, drow);
+    } else {
+      eval.contract_u_position(a_row, row);
+    }
+    for (int b = 1; b < mb; ++b) {
+      if (!mask_row[b]) continue;
+      const size_t s = static_cast<size_t>(lat.index(a, b));
+      ids[s] = next;
+      const double* bvb = &bv[static_cast<size_t>(b * (dv + 1))];
+      if (normals) {
+        const SurfacePointEval e = eval.finish(row, drow, bvb, &dbv[static_cast<size_t>(b * (dv + 1))]);
+        result.positions[next] = e.position;
+        const Vec3 cr = glm::cross(e.du, e.dv);
+        const double len = glm::length(cr);
+        result.normals[next] =
+            (len > 0.0 && std::isfinite(len)) ? cr / len : detail::surface_normal(patch, lat.u(a), lat.v(b));
+      } else {
+        result.positions[next] = eval.finish_position(row, bvb);
+      }
+      if (in.params.surface_data) result.surface_points[next] = {ps.pid, lat.u(a), lat.v(b)};
+      ++next;
+    }
+  }
+}
+
+// The whole direct path; false (the result to be discarded) where a prediction failed.
+bool tessellate_direct(const EscInput& in, Tessellation& result, uint64_t& strips, std::vector<Counts>& patch_counts) {
+  const Model& model = in.model;
+  const EscParams& params = in.params;
+  const int P = in.P;
+  const size_t np = model.patches.size();
+  const uint32_t side_end = in.sides.layout.end;
+
+  // Pass 1.
+  std::vector<PatchPlan> plans(np);
+  uint64_t mask_bytes = 0;
+  for (size_t p = 0; p < np; ++p) {
+    plans[p].mask_offset = mask_bytes;
+    mask_bytes += static_cast<uint64_t>(model.patches[p].degree_u * P + 1) *
+                  static_cast<uint64_t>(model.patches[p].degree_v * P + 1);
+  }
+  std::vector<uint8_t> masks(mask_bytes);
+  std::vector<std::atomic<uint8_t>> side_inserted(side_end);
+  tbb::enumerable_thread_specific<Scratch> scratch;
+  tbb::parallel_for(size_t{0}, np, [&](size_t p) {
+    budget::check("the ESC tessellation");
+    plan_patch(in, p, scratch.local(), masks.data(), side_inserted, plans[p]);
+  });
+
+  // Final ids: the inserted side vertices in layout order, then every patch's own vertices.
+  std::vector<uint32_t> side_final(side_end, UINT32_MAX);
+  uint32_t used_sides = 0;
+  for (uint32_t id = 0; id < side_end; ++id) {
+    if (side_inserted[id].load(std::memory_order_relaxed)) side_final[id] = used_sides++;
+  }
+  DirectOffsets at;
+  at.vertex.assign(np + 1, used_sides);
+  at.tri.assign(np + 1, 0);
+  at.strip.assign(np + 1, 0);
+  at.strip_index.assign(np + 1, 0);
+  for (size_t p = 0; p < np; ++p) {
+    at.vertex[p + 1] = at.vertex[p] + plans[p].own_vertices;
+    at.tri[p + 1] = at.tri[p] + plans[p].triangles;
+    at.strip[p + 1] = at.strip[p] + plans[p].strips;
+    at.strip_index[p + 1] = at.strip_index[p] + plans[p].strip_ids;
+    patch_counts[p] = plans[p].counts;
+  }
+  const uint64_t vertices = at.vertex[np];
+  if (vertices > UINT32_MAX) throw InputError("the tessellation needs more than 2^32 vertices; lower the level");
+  budget::check_memory(tessellation_bytes(2.0 * double(at.tri[np]), double(vertices)) +
+                           4.0 * double(at.strip_index[np]) + double(mask_bytes),
+                       "the ESC tessellation", "lower the level or raise --max-memory");
+  result.positions.resize(vertices);
+  if (params.normals) result.normals.resize(vertices);
+  if (params.surface_data) result.surface_points.resize(vertices);
+  const Tessellation& full = in.sides.full;
+  tbb::parallel_for(uint32_t{0}, side_end, [&](uint32_t id) {
+    const uint32_t r = side_final[id];
+    if (r == UINT32_MAX) return;
+    result.positions[r] = full.positions[id];
+    if (params.normals) result.normals[r] = full.normals[id];
+    if (params.surface_data) result.surface_points[r] = full.surface_points[id];
+  });
+  result.triangles.resize(at.tri[np]);
+  if (params.surface_data) {
+    result.triangle_patch.resize(at.tri[np]);
+    result.triangle_uv.resize(at.tri[np]);
+  }
+  result.strips.resize(at.strip[np], at.strip_index[np]);
+
+  // Pass 2.
+  std::vector<std::atomic<uint8_t>> side_used(used_sides);
+  std::vector<uint64_t> tri_n(np), strips_n(np), ids_n(np), degenerate(np);
+  std::atomic<bool> failed{false};
+  tbb::parallel_for(size_t{0}, np, [&](size_t p) {
+    if (failed.load(std::memory_order_relaxed)) return;
+    budget::check("the ESC tessellation");
+    Scratch& sc = scratch.local();
+    const PatchState ps = patch_state(in, p, sc);
+    const PatchPlan& plan = plans[p];
+    sc.mask.assign(masks.begin() + static_cast<std::ptrdiff_t>(plan.mask_offset),
+                   masks.begin() + static_cast<std::ptrdiff_t>(plan.mask_offset + (ps.na + 1) * (ps.mb + 1)));
+    const uint32_t own_base = static_cast<uint32_t>(at.vertex[p]);
+    number_final(in, ps, side_final, own_base, result);
+    sc.own_used.assign(plan.own_vertices, 0);
+    DirectSink sink;
+    sink.tri = result.triangles.data() + at.tri[p];
+    sink.uv = params.surface_data ? result.triangle_uv.data() + at.tri[p] : nullptr;
+    sink.tri_patch = params.surface_data ? result.triangle_patch.data() + at.tri[p] : nullptr;
+    sink.pid = static_cast<uint32_t>(p);
+    sink.tri_cap = plan.triangles;
+    sink.ids = result.strips.mutable_indices() + at.strip_index[p];
+    sink.ids_cap = plan.strip_ids;
+    sink.ids_at = at.strip_index[p];
+    sink.ends = result.strips.mutable_offsets() + at.strip[p] + 1;
+    sink.strips_cap = plan.strips;
+    sink.side_used_end = used_sides;
+    sink.own_base = own_base;
+    sink.own_count = plan.own_vertices;
+    sink.side_used = &side_used;
+    sink.own_used = &sc.own_used;
+    build_strips(in, ps, plan.distinct_side_ids, sink);
+    const bool all_own_used = std::find(sc.own_used.begin(), sc.own_used.end(), uint8_t{0}) == sc.own_used.end();
+    if (sink.failed || !all_own_used) failed.store(true, std::memory_order_relaxed);
+    tri_n[p] = sink.tri_n;
+    strips_n[p] = sink.strips_n;
+    ids_n[p] = sink.ids_n;
+    degenerate[p] = sink.degenerates;
+  });
+  if (failed.load()) return false;
+  for (uint32_t id = 0; id < used_sides; ++id) {
+    if (!side_used[id].load(std::memory_order_relaxed)) return false;  // predicted, but no strip uses it
+  }
+
+  // Close the gaps where a patch wrote less than its bounds (moving down, in patch order).
+  uint64_t tri_out = 0, strip_out = 0, id_out = 0;
+  uint32_t* ids = result.strips.mutable_indices();
+  uint64_t* ends = result.strips.mutable_offsets() + 1;
+  for (size_t p = 0; p < np; ++p) {
+    if (tri_out != at.tri[p]) {
+      std::copy_n(result.triangles.begin() + static_cast<std::ptrdiff_t>(at.tri[p]), tri_n[p],
+                  result.triangles.begin() + static_cast<std::ptrdiff_t>(tri_out));
+      if (params.surface_data) {
+        std::copy_n(result.triangle_uv.begin() + static_cast<std::ptrdiff_t>(at.tri[p]), tri_n[p],
+                    result.triangle_uv.begin() + static_cast<std::ptrdiff_t>(tri_out));
+        std::copy_n(result.triangle_patch.begin() + static_cast<std::ptrdiff_t>(at.tri[p]), tri_n[p],
+                    result.triangle_patch.begin() + static_cast<std::ptrdiff_t>(tri_out));
+      }
+    }
+    const uint64_t shift = at.strip_index[p] - id_out;
+    if (shift != 0) std::copy_n(ids + at.strip_index[p], ids_n[p], ids + id_out);
+    if (shift != 0 || strip_out != at.strip[p]) {
+      for (uint64_t s = 0; s < strips_n[p]; ++s) ends[strip_out + s] = ends[at.strip[p] + s] - shift;
+    }
+    tri_out += tri_n[p];
+    strip_out += strips_n[p];
+    id_out += ids_n[p];
+    result.degenerate_triangles += degenerate[p];
+  }
+  result.triangles.resize(tri_out);
+  if (params.surface_data) {
+    result.triangle_patch.resize(tri_out);
+    result.triangle_uv.resize(tri_out);
+  }
+  result.strips.shrink(strip_out, id_out);
+  strips = strip_out;
+  return true;
+}
+
 }  // namespace
 
 uint64_t esc_full_triangle_count(const Model& model, int level) {
@@ -802,25 +1211,58 @@ uint64_t esc_full_triangle_count(const Model& model, int level) {
   return total;
 }
 
-Tessellation tessellate_esc(const Model& model, const Topology& topology, const EscParams& params, EscStats* stats) {
-  check_params(model, topology, params);
-  const int P = params.level + 1;
-  const size_t np = model.patches.size();
-  const Sides sides = decide_sides(model, topology, params, P);
+namespace {
 
-  std::vector<Counts> patch_counts(np);
+// Steps 2 and 3 by way of per-patch buffers copied into place (the direct path's fallback).
+Tessellation tessellate_by_copy(const EscInput& in, uint64_t& strips, std::vector<Counts>& patch_counts) {
+  const size_t np = in.model.patches.size();
   std::vector<PatchOutput> outputs(np);
   tbb::enumerable_thread_specific<Scratch> scratch;
-  const EscInput in{model, topology, params, sides, P};
   tbb::parallel_for(size_t{0}, np, [&](size_t p) {
     budget::check("the ESC tessellation");
     patch_counts[p] = tessellate_patch(in, p, scratch.local(), outputs[p]);
   });
+  return assemble(in.params, in.sides, outputs, strips);
+}
 
+Tessellation tessellate_esc_with(const Model& model, const Topology& topology, const EscParams& params, EscStats* stats,
+                                 bool direct) {
+  check_params(model, topology, params);
+  const int P = params.level + 1;
+  const size_t np = model.patches.size();
+  const Sides sides = decide_sides(model, topology, params, P);
+  const EscInput in{model, topology, params, sides, P};
+  std::vector<Counts> patch_counts(np);
   uint64_t strips = 0;
-  Tessellation result = assemble(params, sides, outputs, strips);
+  Tessellation result;
+  if (!direct || !tessellate_direct(in, result, strips, patch_counts)) {
+    result = tessellate_by_copy(in, strips, patch_counts);
+  }
   if (stats) fill_stats(topology, sides, P, patch_counts, strips, *stats);
   return result;
 }
+
+}  // namespace
+
+Tessellation tessellate_esc(const Model& model, const Topology& topology, const EscParams& params, EscStats* stats) {
+  return tessellate_esc_with(model, topology, params, stats, true);
+}
+
+namespace detail {
+Tessellation tessellate_esc_by_copy(const Model& model, const Topology& topology, const EscParams& params,
+                                    EscStats* stats) {
+  return tessellate_esc_with(model, topology, params, stats, false);
+}
+bool esc_direct_path_applies(const Model& model, const Topology& topology, const EscParams& params) {
+  check_params(model, topology, params);
+  const int P = params.level + 1;
+  const Sides sides = decide_sides(model, topology, params, P);
+  const EscInput in{model, topology, params, sides, P};
+  std::vector<Counts> patch_counts(model.patches.size());
+  uint64_t strips = 0;
+  Tessellation result;
+  return tessellate_direct(in, result, strips, patch_counts);
+}
+}  // namespace detail
 
 }  // namespace sagitta

@@ -52,4 +52,14 @@ uint64_t esc_full_triangle_count(const Model& model, int level);
 Tessellation tessellate_esc(const Model& model, const Topology& topology, const EscParams& params,
                             EscStats* stats = nullptr);
 
+namespace detail {
+// tessellate_esc by way of per-patch buffers copied into place: the same result, slower. It is
+// what tessellate_esc falls back to where its in-place path cannot predict the vertices the strips
+// use (around collapsed sides); public for the tests that compare the two.
+Tessellation tessellate_esc_by_copy(const Model& model, const Topology& topology, const EscParams& params,
+                                    EscStats* stats = nullptr);
+// Whether tessellate_esc takes its in-place path for these inputs (for tests).
+bool esc_direct_path_applies(const Model& model, const Topology& topology, const EscParams& params);
+}  // namespace detail
+
 }  // namespace sagitta

@@ -78,6 +78,11 @@ class StripList {
     indices_.resize(ids);
     offsets_.assign(strips + 1, 0);
   }
+  // Keeps the first `strips` strips and `ids` ids (after filling in place; offsets()[strips] == ids).
+  void shrink(size_t strips, size_t ids) {
+    indices_.resize(ids);
+    offsets_.resize(strips + 1);
+  }
   uint32_t* mutable_indices() { return indices_.data(); }
   uint64_t* mutable_offsets() { return offsets_.data(); }
   void reserve(size_t strips, size_t ids) {
