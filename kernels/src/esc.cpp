@@ -868,17 +868,38 @@ bool side_ids_distinct(const EscInput& in, const PatchState& ps) {
   return true;
 }
 
-// Calls f(a, b, id) for every lattice point on the patch's sides (corners more than once).
+// Calls f(a, b, id) for every lattice point on the patch's sides, side by side (U0, U1, V0, V1; the
+// corners more than once, the V sides last), id = side_vertex(layout, topology, patch, side, k)
+// with side_vertex's per-side work done once per side.
 template <class F>
 void for_each_side_point(const EscInput& in, const PatchState& ps, F&& f) {
   const BoundaryLayout& layout = in.sides.layout;
-  for (int k = 0; k <= ps.mb; ++k) {
-    f(0, k, side_vertex(layout, in.topology, ps.pid, Side::kU0, k));
-    f(ps.na, k, side_vertex(layout, in.topology, ps.pid, Side::kU1, k));
-  }
-  for (int k = 0; k <= ps.na; ++k) {
-    f(k, 0, side_vertex(layout, in.topology, ps.pid, Side::kV0, k));
-    f(k, ps.mb, side_vertex(layout, in.topology, ps.pid, Side::kV1, k));
+  for (Side side : kAllSides) {
+    const bool along_v = side == Side::kU0 || side == Side::kU1;
+    const int count = along_v ? ps.mb : ps.na;
+    const int fixed = side == Side::kU1 ? ps.na : side == Side::kV1 ? ps.mb : 0;
+    const auto point = [&](int k, uint32_t id) {
+      if (along_v) {
+        f(fixed, k, id);
+      } else {
+        f(k, fixed, id);
+      }
+    };
+    const Topology::SideInfo& info = in.topology.side(ps.pid, side);
+    const uint32_t first = side_vertex(layout, in.topology, ps.pid, side, 0);
+    if (info.collapsed) {
+      for (int k = 0; k <= count; ++k) point(k, first);
+      continue;
+    }
+    const int n = layout.edge_segments[static_cast<size_t>(info.edge)];
+    const uint32_t last = side_vertex(layout, in.topology, ps.pid, side, n);
+    const uint32_t base = layout.edge_base[static_cast<size_t>(info.edge)];
+    for (int k = 0; k <= count; ++k) {
+      const uint32_t id = k <= 0   ? first
+                          : k >= n ? last
+                                   : base + static_cast<uint32_t>((info.reversed ? n - k : k) - 1);
+      point(k, id);
+    }
   }
 }
 
@@ -917,17 +938,23 @@ void plan_patch(const EscInput& in, size_t p, Scratch& sc, uint8_t* masks,
         int upper_k = 0;
         for (int k = 1; k <= P; ++k) {
           if (!row_present(ps, ct, k)) continue;
-          uint64_t len = 2;
+          // Rows between apex and base: fill_rows inserted every point strictly between the ends
+          // (none of them on a patch side), so only the ends can be missing. The base row's
+          // candidates are counted.
+          uint64_t len = static_cast<uint64_t>(k + 1);
           ct.point(k, 0, a, b);
           bool complete = node(a, b);
           ct.point(k, k, a, b);
           complete = complete && node(a, b);
-          for (int c = 1; c < k; ++c) {
-            ct.point(k, c, a, b);
-            if (node(a, b)) {
-              ++len;
-            } else {
-              complete = false;
+          if (k == P) {
+            len = 2;
+            for (int c = 1; c < k; ++c) {
+              ct.point(k, c, a, b);
+              if (node(a, b)) {
+                ++len;
+              } else {
+                complete = false;
+              }
             }
           }
           const uint64_t steps = upper_len + len - 2;
@@ -985,21 +1012,37 @@ struct DirectSink {
       failed = true;
       return;
     }
-    for (const uint32_t* id = first; id != last; ++id) {
-      if (*id < side_used_end) {
-        (*side_used)[*id].store(1, std::memory_order_relaxed);
-      } else if (*id - own_base < own_count) {
-        (*own_used)[*id - own_base] = 1;
+    // Copied id by id (a strip is a few dozen ids: memcpy's start-up cost dominated here).
+    uint32_t* to = ids + ids_n;
+    for (uint64_t k = 0; k < n; ++k) {
+      const uint32_t id = first[k];
+      to[k] = id;
+      if (id < side_used_end) {
+        (*side_used)[id].store(1, std::memory_order_relaxed);
+      } else if (id - own_base < own_count) {
+        (*own_used)[id - own_base] = 1;
       } else {
         failed = true;  // a side vertex pass 1 did not predict
       }
     }
-    std::copy(first, last, ids + ids_n);
     ids_n += n;
     ends[strips_n++] = ids_at + ids_n;
   }
   void degenerate() { ++degenerates; }
 };
+
+// PatchEvaluator::finish_position where the weight sum is exactly 1 (a polynomial patch in the power
+// basis: the weight row is 1, 0, ..., 0 and the first basis function is 1): the same sums, and the
+// division by 1 left out, so the same bits.
+inline Vec3 finish_unit_weight_position(const Vec3& origin, int m, const std::array<double, 4>* row, const double* b) {
+  double x = 0.0, y = 0.0, z = 0.0;
+  for (int j = 0; j <= m; ++j) {
+    x += b[j] * row[j][0];
+    y += b[j] * row[j][1];
+    z += b[j] * row[j][2];
+  }
+  return origin + Vec3(x, y, z);
+}
 
 // Pass 2, number_vertices with final ids: side points take their predicted final id
 // (UINT32_MAX where not predicted), inserted points strictly inside get own_base + their rank in
@@ -1023,6 +1066,8 @@ void number_final(const EscInput& in, const PatchState& ps, const std::vector<ui
   for (int b = 0; b <= mb; ++b) {
     eval.basis_row(dv, lat.v(b), &bv[static_cast<size_t>(b * (dv + 1))], &dbv[static_cast<size_t>(b * (dv + 1))]);
   }
+  // A polynomial patch in the power basis has weight sum exactly 1 (as in the uniform grid kernels).
+  const bool unit_weight = !patch.rational() && eval.uses_power_basis();
   double a_row[kMaxDegree + 1], da_row[kMaxDegree + 1];
   std::array<double, 4> row[kMaxDegree + 1], drow[kMaxDegree + 1];
   uint32_t next = own_base;
@@ -1047,6 +1092,8 @@ void number_final(const EscInput& in, const PatchState& ps, const std::vector<ui
         const double len = glm::length(cr);
         result.normals[next] =
             (len > 0.0 && std::isfinite(len)) ? cr / len : detail::surface_normal(patch, lat.u(a), lat.v(b));
+      } else if (unit_weight) {
+        result.positions[next] = finish_unit_weight_position(eval.origin(), dv, row, bvb);
       } else {
         result.positions[next] = eval.finish_position(row, bvb);
       }
