@@ -218,7 +218,8 @@ Sides decide_sides(const Model& model, const Topology& topology, const EscParams
     Vec3 S[kMaxEscLevel + 2];
     uint8_t ins[kMaxEscLevel + 2];
     for (int seg = 0; seg * P < n; ++seg) {
-      for (int s = 0; s <= P; ++s) {
+      // At rho = 0 every candidate is inserted without looking at the surface.
+      for (int s = 0; s <= P && rho > 0.0; ++s) {
         const int k = seg * P + s;
         S[s] = k == 0   ? edge.points.front()
                : k == n ? edge.points.back()

@@ -96,7 +96,38 @@ Vec3 project_derivative(const H& h, const H& dh) {
 
 }  // namespace
 
+namespace {
+
+// de_casteljau_curve for N control points: the same operations in the same order, with the loops'
+// bounds known (unrolled; the usual degrees 1 to 3).
+template <size_t N>
+Vec3 de_casteljau_fixed(const std::vector<Vec3>& points, const std::vector<double>& weights, double t) {
+  H pts[N];
+  for (size_t k = 0; k < N; ++k) {
+    const double w = weights.empty() ? 1.0 : weights[k];
+    pts[k] = {w * points[k].x, w * points[k].y, w * points[k].z, w};
+  }
+  for (size_t r = 1; r < N; ++r) {
+    for (size_t k = 0; k + r < N; ++k) {
+      for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
+    }
+  }
+  return project(pts[0]);
+}
+
+}  // namespace
+
 Vec3 de_casteljau_curve(const std::vector<Vec3>& points, const std::vector<double>& weights, double t) {
+  switch (points.size()) {
+    case 2:
+      return de_casteljau_fixed<2>(points, weights, t);
+    case 3:
+      return de_casteljau_fixed<3>(points, weights, t);
+    case 4:
+      return de_casteljau_fixed<4>(points, weights, t);
+    default:
+      break;
+  }
   // On the stack up to the largest degree (the boundary samples of every scheme come here).
   H local[kMaxDegree + 1];
   std::vector<H> heap;
