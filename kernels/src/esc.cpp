@@ -423,11 +423,10 @@ void fill_rows(int P, const PatchState& ps) {
           row_point(P, tri, i, j, k, 0, a0, b0);
           row_point(P, tri, i, j, k, k, a1, b1);
           const uint8_t present = ps.mask(a0, b0) | ps.mask(a1, b1);
-          for (int c = 1; c < k; ++c) {
-            int a, b;
-            row_point(P, tri, i, j, k, c, a, b);
-            ps.mask(a, b) = present;
-          }
+          // Along a row (a, b) moves by (1, 1) per c in triangle 0 and by (-1, -1) in triangle 1.
+          const std::ptrdiff_t step = (tri == 0 ? 1 : -1) * static_cast<std::ptrdiff_t>(lat.cols + 1);
+          uint8_t* first = &ps.mask(a0, b0);
+          for (int c = 1; c < k; ++c) first[c * step] = present;
         }
       }
     }
@@ -542,7 +541,7 @@ bool build_row(const PatchState& ps, const CoarseTriangle& ct, int k, Row& row) 
 
 // Whether row k of the coarse triangle is in the pattern: the apex and the base always are, a row
 // between them when one of its end points is inserted.
-bool row_present(const PatchState& ps, const CoarseTriangle& ct, int k) {
+inline bool row_present(const PatchState& ps, const CoarseTriangle& ct, int k) {
   if (k == 0 || k == ct.P) return true;
   int a0, b0, a1, b1;
   ct.point(k, 0, a0, b0);
