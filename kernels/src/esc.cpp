@@ -626,6 +626,59 @@ void zip_rows(const Lattice& lat, const Row& upper, const Row& lower, std::vecto
 
 // The strips and triangles of every coarse triangle, band by band from the apex to the base.
 // `distinct_side_ids`: number_vertices' result (regular bands may skip the zipper's tests).
+// Whether every lattice point of the coarse triangle is inserted.
+inline bool coarse_triangle_full(const PatchState& ps, const CoarseTriangle& ct) {
+  const int cols = ps.lat.cols;
+  const uint8_t* mask = ps.sc.mask.data();
+  const int step = ct.tri == 0 ? 1 : -1;
+  for (int k = 0; k <= ct.P; ++k) {
+    int a, b;
+    ct.point(k, 0, a, b);
+    const uint8_t* first = mask + a * cols + b;
+    for (int c = 0; c <= k; ++c) {
+      if (!first[c * step * (cols + 1)]) return false;
+    }
+  }
+  return true;
+}
+
+// A coarse triangle whose every lattice point is inserted, on a patch whose side ids are distinct:
+// every row is complete, so every band is regular; written straight from the lattice, the same
+// triangles and strips as build_row and zip_regular_band give, without building the rows.
+template <class Sink>
+void emit_full_coarse_triangle(const PatchState& ps, const CoarseTriangle& ct, Sink& out) {
+  const int cols = ps.lat.cols;
+  const uint32_t* ids = ps.sc.ids.data();
+  const int step = ct.tri == 0 ? 1 : -1;  // (a, b) moves by (step, step) from one c to the next
+  uint32_t strip[2 * (kMaxEscLevel + 1) + 1];
+  int ua, ub;
+  ct.point(0, 0, ua, ub);
+  for (int k = 1; k <= ct.P; ++k) {
+    int la, lb;
+    ct.point(k, 0, la, lb);
+    const auto lower = [&](int c) {
+      const int a = la + step * c, b = lb + step * c;
+      return Node{ids[a * cols + b], a, b, 0, 1};
+    };
+    const auto upper = [&](int c) {
+      const int a = ua + step * c, b = ub + step * c;
+      return Node{ids[a * cols + b], a, b, 0, 1};
+    };
+    for (int c = 0; c < k; ++c) {
+      out.triangle(ps.lat, lower(c), upper(c), lower(c + 1));
+      if (c + 1 < k) out.triangle(ps.lat, lower(c + 1), upper(c), upper(c + 1));
+    }
+    for (int c = 0; c < k; ++c) {
+      strip[2 * c] = lower(c).id;
+      strip[2 * c + 1] = upper(c).id;
+    }
+    strip[2 * k] = lower(k).id;
+    out.strip(strip, strip + 2 * k + 1);
+    ua = la;
+    ub = lb;
+  }
+}
+
 template <class Sink>
 void build_strips(const EscInput& in, const PatchState& ps, bool distinct_side_ids, Sink& out) {
   const Lattice& lat = ps.lat;
@@ -635,6 +688,10 @@ void build_strips(const EscInput& in, const PatchState& ps, bool distinct_side_i
     for (int j = 0; j < lat.m; ++j) {
       for (int tri = 0; tri < 2; ++tri) {
         const CoarseTriangle ct{in.P, tri, i, j};
+        if (distinct_side_ids && coarse_triangle_full(ps, ct)) {
+          emit_full_coarse_triangle(ps, ct, out);
+          continue;
+        }
         bool upper_complete = build_row(ps, ct, 0, *upper);
         int upper_k = 0;
         for (int k = 1; k <= in.P; ++k) {
