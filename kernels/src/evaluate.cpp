@@ -102,6 +102,19 @@ namespace {
 // bounds known (unrolled; the usual degrees 1 to 3).
 template <size_t N>
 Vec3 de_casteljau_fixed(const std::vector<Vec3>& points, const std::vector<double>& weights, double t) {
+  if (weights.empty() && t >= 0.0 && t <= 1.0) {
+    // Unit weights stay exactly 1 at every step for t in [0, 1]: fl(1 - t) + t rounds to 1 (1 - t
+    // is exact for t >= 1/2; below, its error is at most 2^-54, which the sum rounds away). So the
+    // weight channel and the division by it are left out: the same bits.
+    Vec3 pts[N];
+    for (size_t k = 0; k < N; ++k) pts[k] = points[k];
+    for (size_t r = 1; r < N; ++r) {
+      for (size_t k = 0; k + r < N; ++k) {
+        for (int c = 0; c < 3; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
+      }
+    }
+    return pts[0];
+  }
   H pts[N];
   for (size_t k = 0; k < N; ++k) {
     const double w = weights.empty() ? 1.0 : weights[k];

@@ -183,5 +183,37 @@ TEST(Evaluate, BinomialIsExact) {
   EXPECT_EQ(binomial(3, 4), 0.0);
 }
 
+// de_casteljau_curve leaves the weight channel out for polynomial curves at t in [0, 1] (unit weights
+// stay exactly 1 there); the result must be bit for bit the homogeneous computation with explicit
+// unit weights, at every degree, at the ends and at random and adversarial parameters (just below
+// 1/2, tiny, just below 1), on coordinates of mixed magnitude.
+TEST(Evaluate, PolynomialCurveEqualsUnitWeightHomogeneousCurve) {
+  std::mt19937_64 rng(42);
+  std::uniform_real_distribution<double> unit(0.0, 1.0), coord(-1e3, 1e3);
+  std::vector<double> ts = {0.0,       1.0, 0.5, std::nextafter(0.5, 0.0), 1e-300, 5e-324, std::nextafter(1.0, 0.0),
+                            1.0 / 3.0, 0.1, 0.7};
+  for (int k = 0; k < 2000; ++k) ts.push_back(unit(rng));
+  size_t compared = 0;
+  for (int degree = 1; degree <= 7; ++degree) {
+    for (int trial = 0; trial < 20; ++trial) {
+      std::vector<Vec3> points;
+      for (int k = 0; k <= degree; ++k) {
+        const double scale = std::pow(10.0, static_cast<double>(k % 5) - 2.0);
+        points.emplace_back(coord(rng) * scale, coord(rng), coord(rng) / scale);
+      }
+      const std::vector<double> ones(points.size(), 1.0);
+      for (double t : ts) {
+        const Vec3 fast = de_casteljau_curve(points, {}, t);
+        const Vec3 homogeneous = de_casteljau_curve(points, ones, t);
+        for (int c = 0; c < 3; ++c) {
+          ASSERT_EQ(fast[c], homogeneous[c]) << "degree " << degree << " t " << t << " coordinate " << c;
+        }
+        ++compared;
+      }
+    }
+  }
+  EXPECT_EQ(compared, 7u * 20u * 2010u);
+}
+
 }  // namespace
 }  // namespace sagitta
