@@ -13,6 +13,7 @@
 #include <atomic>
 #include <cmath>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace sagitta {
@@ -1097,7 +1098,9 @@ struct DirectSink {
 // PatchEvaluator::finish_position where the weight sum is exactly 1 (a polynomial patch in the power
 // basis: the weight row is 1, 0, ..., 0 and the first basis function is 1): the same sums, and the
 // division by 1 left out, so the same bits.
-inline Vec3 finish_unit_weight_position(const Vec3& origin, int m, const std::array<double, 4>* row, const double* b) {
+template <class Degree>
+inline Vec3 finish_unit_weight_position(const Vec3& origin, Degree m, const std::array<double, 4>* row,
+                                        const double* b) {
   double x = 0.0, y = 0.0, z = 0.0;
   for (int j = 0; j <= m; ++j) {
     x += b[j] * row[j][0];
@@ -1105,6 +1108,18 @@ inline Vec3 finish_unit_weight_position(const Vec3& origin, int m, const std::ar
     z += b[j] * row[j][2];
   }
   return origin + Vec3(x, y, z);
+}
+inline Vec3 finish_unit_weight_position(const Vec3& origin, int m, const std::array<double, 4>* row, const double* b) {
+  switch (m) {  // the usual degrees unrolled (the same operations)
+    case 1:
+      return finish_unit_weight_position(origin, std::integral_constant<int, 1>(), row, b);
+    case 2:
+      return finish_unit_weight_position(origin, std::integral_constant<int, 2>(), row, b);
+    case 3:
+      return finish_unit_weight_position(origin, std::integral_constant<int, 3>(), row, b);
+    default:
+      return finish_unit_weight_position<int>(origin, m, row, b);
+  }
 }
 
 // Pass 2, number_vertices with final ids: side points take their predicted final id
