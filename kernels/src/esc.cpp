@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -136,6 +137,8 @@ struct BufferSink {
     if (surface_data) out.uv.push_back({node_uv(lat, p), node_uv(lat, q), node_uv(lat, r)});
   }
   void strip(const uint32_t* first, const uint32_t* last) { out.strips.push_back(first, last); }
+  void strip_marked_elsewhere(const uint32_t* first, const uint32_t* last) { strip(first, last); }
+  void mark_used(const uint32_t*, const uint32_t*) {}  // mark_used (the function) reads the strips
   void degenerate() { ++out.degenerate; }
 };
 
@@ -654,6 +657,8 @@ void emit_full_coarse_triangle(const PatchState& ps, const CoarseTriangle& ct, S
   uint32_t strip[2 * (kMaxEscLevel + 1) + 1];
   int ua, ub;
   ct.point(0, 0, ua, ub);
+  const uint32_t apex = ids[ua * cols + ub];
+  out.mark_used(&apex, &apex + 1);
   for (int k = 1; k <= ct.P; ++k) {
     int la, lb;
     ct.point(k, 0, la, lb);
@@ -674,7 +679,11 @@ void emit_full_coarse_triangle(const PatchState& ps, const CoarseTriangle& ct, S
       strip[2 * c + 1] = upper(c).id;
     }
     strip[2 * k] = lower(k).id;
-    out.strip(strip, strip + 2 * k + 1);
+    out.strip_marked_elsewhere(strip, strip + 2 * k + 1);
+    // Row k is used (every row is in a strip): its ids marked once, not once per strip.
+    uint32_t row[kMaxEscLevel + 2];
+    for (int c = 0; c <= k; ++c) row[c] = lower(c).id;
+    out.mark_used(row, row + k + 1);
     ua = la;
     ub = lb;
   }
@@ -1064,22 +1073,21 @@ struct DirectSink {
     }
     ++tri_n;
   }
+  // A strip whose ids are marked used here.
   void strip(const uint32_t* first, const uint32_t* last) {
-    const uint64_t n = static_cast<uint64_t>(last - first);
-    if (ids_n + n > ids_cap || strips_n == strips_cap) {
-      failed = true;
-      return;
-    }
-    // Copied and marked in one pass over the ids.
+    if (!strip_ids(first, last)) return;
+    mark_used(first, last);
+  }
+  // A strip whose ids the caller marks used with mark_used (each once suffices).
+  void strip_marked_elsewhere(const uint32_t* first, const uint32_t* last) { strip_ids(first, last); }
+  void mark_used(const uint32_t* first, const uint32_t* last) {
     // The fields in locals: the byte stores below may alias them as far as the compiler knows.
-    uint32_t* to = ids + ids_n;
     const uint32_t side_end = side_used_end, base = own_base, own_n = own_count;
     std::atomic<uint8_t>* side = side_used->data();
     uint8_t* own = own_used->data();
     bool unpredicted = false;  // a side vertex pass 1 did not predict
-    for (uint64_t k = 0; k < n; ++k) {
-      const uint32_t id = first[k];
-      to[k] = id;
+    for (const uint32_t* at = first; at != last; ++at) {
+      const uint32_t id = *at;
       if (id < side_end) {
         side[id].store(1, std::memory_order_relaxed);
       } else if (id - base < own_n) {
@@ -1089,8 +1097,22 @@ struct DirectSink {
       }
     }
     failed = failed || unpredicted;
+  }
+  bool strip_ids(const uint32_t* first, const uint32_t* last) {
+    const uint64_t n = static_cast<uint64_t>(last - first);
+    if (ids_n + n > ids_cap || strips_n == strips_cap) {
+      failed = true;
+      return false;
+    }
+    // Four ids per fixed-size copy (inlined moves): a strip is a few dozen ids, and a variable-length
+    // copy (memcpy's string instructions) costs more to start than these.
+    uint32_t* to = ids + ids_n;
+    uint64_t k = 0;
+    for (; k + 4 <= n; k += 4) std::memcpy(to + k, first + k, 4 * sizeof(uint32_t));
+    for (; k < n; ++k) to[k] = first[k];
     ids_n += n;
     ends[strips_n++] = ids_at + ids_n;
+    return true;
   }
   void degenerate() { ++degenerates; }
 };
