@@ -324,15 +324,35 @@ void PatchEvaluator::contract_u(const double* a, const double* da, H* row, H* dr
   }
 }
 
-void PatchEvaluator::contract_u_position(const double* a, H* row) const {
-  const int cols = m_ + 1;
-  for (int j = 0; j <= m_; ++j) {
+namespace {
+
+// contract_u_position's loops with the u-degree n an int or a std::integral_constant (the same
+// operations, unrolled for the usual degrees).
+template <class Degree>
+[[gnu::always_inline]] inline void contract_u_position_on(const H* k, Degree n, int m, const double* a, H* row) {
+  const int cols = m + 1;
+  for (int j = 0; j <= m; ++j) {
     H r{0.0, 0.0, 0.0, 0.0};
-    for (int i = 0; i <= n_; ++i) {
-      const H& kij = k_[static_cast<size_t>(i * cols + j)];
+    for (int i = 0; i <= n; ++i) {
+      const H& kij = k[static_cast<size_t>(i * cols + j)];
       for (int q = 0; q < 4; ++q) r[q] += a[i] * kij[q];
     }
     row[j] = r;
+  }
+}
+
+}  // namespace
+
+void PatchEvaluator::contract_u_position(const double* a, H* row) const {
+  switch (n_) {
+    case 1:
+      return contract_u_position_on(k_.data(), std::integral_constant<int, 1>(), m_, a, row);
+    case 2:
+      return contract_u_position_on(k_.data(), std::integral_constant<int, 2>(), m_, a, row);
+    case 3:
+      return contract_u_position_on(k_.data(), std::integral_constant<int, 3>(), m_, a, row);
+    default:
+      return contract_u_position_on(k_.data(), n_, m_, a, row);
   }
 }
 
