@@ -137,7 +137,7 @@ struct BufferSink {
     if (surface_data) out.uv.push_back({node_uv(lat, p), node_uv(lat, q), node_uv(lat, r)});
   }
   void strip(const uint32_t* first, const uint32_t* last) { out.strips.push_back(first, last); }
-  void strip_marked_elsewhere(const uint32_t* first, const uint32_t* last) { strip(first, last); }
+  uint32_t* append_strip(size_t n) { return out.strips.append(n); }
   void mark_used(const uint32_t*, const uint32_t*) {}  // mark_used (the function) reads the strips
   void degenerate() { ++out.degenerate; }
 };
@@ -565,13 +565,14 @@ void zip_regular_band(const Lattice& lat, const Row& upper, const Row& lower, Si
     out.triangle(lat, lower[c], upper[c], lower[c + 1]);
     if (c + 1 < k) out.triangle(lat, lower[c + 1], upper[c], upper[c + 1]);
   }
-  uint32_t strip[2 * (kMaxEscLevel + 1) + 1];
-  for (size_t c = 0; c < k; ++c) {
-    strip[2 * c] = lower[c].id;
-    strip[2 * c + 1] = upper[c].id;
+  if (uint32_t* strip = out.append_strip(2 * k + 1)) {  // in place (see emit_full_coarse_triangle)
+    for (size_t c = 0; c < k; ++c) {
+      strip[2 * c] = lower[c].id;
+      strip[2 * c + 1] = upper[c].id;
+    }
+    strip[2 * k] = lower[k].id;
+    out.mark_used(strip, strip + 2 * k + 1);
   }
-  strip[2 * k] = lower[k].id;
-  out.strip(strip, strip + 2 * k + 1);
 }
 
 // Zip the two rows into one strip: advance along the row whose next vertex comes first
@@ -654,7 +655,6 @@ void emit_full_coarse_triangle(const PatchState& ps, const CoarseTriangle& ct, S
   const int cols = ps.lat.cols;
   const uint32_t* ids = ps.sc.ids.data();
   const int step = ct.tri == 0 ? 1 : -1;  // (a, b) moves by (step, step) from one c to the next
-  uint32_t strip[2 * (kMaxEscLevel + 1) + 1];
   int ua, ub;
   ct.point(0, 0, ua, ub);
   const uint32_t apex = ids[ua * cols + ub];
@@ -674,12 +674,15 @@ void emit_full_coarse_triangle(const PatchState& ps, const CoarseTriangle& ct, S
       out.triangle(ps.lat, lower(c), upper(c), lower(c + 1));
       if (c + 1 < k) out.triangle(ps.lat, lower(c + 1), upper(c), upper(c + 1));
     }
-    for (int c = 0; c < k; ++c) {
-      strip[2 * c] = lower(c).id;
-      strip[2 * c + 1] = upper(c).id;
+    // Written in place: staged in a local array, the 4-byte stores were read back by the copy's
+    // 16-byte loads, which the processor cannot forward (a stall per strip).
+    if (uint32_t* strip = out.append_strip(static_cast<size_t>(2 * k + 1))) {
+      for (int c = 0; c < k; ++c) {
+        strip[2 * c] = lower(c).id;
+        strip[2 * c + 1] = upper(c).id;
+      }
+      strip[2 * k] = lower(k).id;
     }
-    strip[2 * k] = lower(k).id;
-    out.strip_marked_elsewhere(strip, strip + 2 * k + 1);
     // Row k is used (every row is in a strip): its ids marked once, not once per strip.
     uint32_t row[kMaxEscLevel + 2];
     for (int c = 0; c <= k; ++c) row[c] = lower(c).id;
@@ -1073,14 +1076,15 @@ struct DirectSink {
     }
     ++tri_n;
   }
-  // A strip whose ids are marked used here.
+  // A strip whose ids are marked used here (zip_rows' strips, staged in its vector).
   void strip(const uint32_t* first, const uint32_t* last) {
-    if (!strip_ids(first, last)) return;
-    mark_used(first, last);
+    uint32_t* to = append_strip(static_cast<size_t>(last - first));
+    if (to) mark_used(first, last, to);
   }
-  // A strip whose ids the caller marks used with mark_used (each once suffices).
-  void strip_marked_elsewhere(const uint32_t* first, const uint32_t* last) { strip_ids(first, last); }
-  void mark_used(const uint32_t* first, const uint32_t* last) {
+  void mark_used(const uint32_t* first, const uint32_t* last) { mark_used(first, last, nullptr); }
+  // Marks [first, last) used and, with `copy_to`, copies them there in the same pass (4-byte loads
+  // as they were stored, so they are forwarded from the stores; a memcpy's wider loads are not).
+  void mark_used(const uint32_t* first, const uint32_t* last, uint32_t* copy_to) {
     // The fields in locals: the byte stores below may alias them as far as the compiler knows.
     const uint32_t side_end = side_used_end, base = own_base, own_n = own_count;
     std::atomic<uint8_t>* side = side_used->data();
@@ -1088,6 +1092,7 @@ struct DirectSink {
     bool unpredicted = false;  // a side vertex pass 1 did not predict
     for (const uint32_t* at = first; at != last; ++at) {
       const uint32_t id = *at;
+      if (copy_to) *copy_to++ = id;
       if (id < side_end) {
         side[id].store(1, std::memory_order_relaxed);
       } else if (id - base < own_n) {
@@ -1098,21 +1103,16 @@ struct DirectSink {
     }
     failed = failed || unpredicted;
   }
-  bool strip_ids(const uint32_t* first, const uint32_t* last) {
-    const uint64_t n = static_cast<uint64_t>(last - first);
+  // Room for a strip of n ids, filled by the caller (who marks them used); null when past the bounds.
+  uint32_t* append_strip(size_t n) {
     if (ids_n + n > ids_cap || strips_n == strips_cap) {
       failed = true;
-      return false;
+      return nullptr;
     }
-    // Four ids per fixed-size copy (inlined moves): a strip is a few dozen ids, and a variable-length
-    // copy (memcpy's string instructions) costs more to start than these.
-    uint32_t* to = ids + ids_n;
-    uint64_t k = 0;
-    for (; k + 4 <= n; k += 4) std::memcpy(to + k, first + k, 4 * sizeof(uint32_t));
-    for (; k < n; ++k) to[k] = first[k];
+    uint32_t* at = ids + ids_n;
     ids_n += n;
     ends[strips_n++] = ids_at + ids_n;
-    return true;
+    return at;
   }
   void degenerate() { ++degenerates; }
 };
