@@ -138,6 +138,11 @@ struct BufferSink {
   }
   void strip(const uint32_t* first, const uint32_t* last) { out.strips.push_back(first, last); }
   uint32_t* append_strip(size_t n) { return out.strips.append(n); }
+  bool wants_uv() const { return surface_data; }
+  Triangle* append_triangles(size_t n) {
+    out.triangles.resize(out.triangles.size() + n);
+    return out.triangles.data() + (out.triangles.size() - n);
+  }
   void mark_used(const uint32_t*, const uint32_t*) {}  // mark_used (the function) reads the strips
   void degenerate() { ++out.degenerate; }
 };
@@ -561,9 +566,16 @@ inline bool row_present(const PatchState& ps, const CoarseTriangle& ct, int k) {
 template <class Sink>
 void zip_regular_band(const Lattice& lat, const Row& upper, const Row& lower, Sink& out) {
   const size_t k = upper.size();
-  for (size_t c = 0; c < k; ++c) {
-    out.triangle(lat, lower[c], upper[c], lower[c + 1]);
-    if (c + 1 < k) out.triangle(lat, lower[c + 1], upper[c], upper[c + 1]);
+  if (out.wants_uv()) {
+    for (size_t c = 0; c < k; ++c) {
+      out.triangle(lat, lower[c], upper[c], lower[c + 1]);
+      if (c + 1 < k) out.triangle(lat, lower[c + 1], upper[c], upper[c + 1]);
+    }
+  } else if (Triangle* t = out.append_triangles(2 * k - 1)) {
+    for (size_t c = 0; c < k; ++c) {
+      *t++ = {lower[c].id, upper[c].id, lower[c + 1].id};
+      if (c + 1 < k) *t++ = {lower[c + 1].id, upper[c].id, upper[c + 1].id};
+    }
   }
   if (uint32_t* strip = out.append_strip(2 * k + 1)) {  // in place (see emit_full_coarse_triangle)
     for (size_t c = 0; c < k; ++c) {
@@ -670,9 +682,16 @@ void emit_full_coarse_triangle(const PatchState& ps, const CoarseTriangle& ct, S
       const int a = ua + step * c, b = ub + step * c;
       return Node{ids[a * cols + b], a, b, 0, 1};
     };
-    for (int c = 0; c < k; ++c) {
-      out.triangle(ps.lat, lower(c), upper(c), lower(c + 1));
-      if (c + 1 < k) out.triangle(ps.lat, lower(c + 1), upper(c), upper(c + 1));
+    if (out.wants_uv()) {
+      for (int c = 0; c < k; ++c) {
+        out.triangle(ps.lat, lower(c), upper(c), lower(c + 1));
+        if (c + 1 < k) out.triangle(ps.lat, lower(c + 1), upper(c), upper(c + 1));
+      }
+    } else if (Triangle* t = out.append_triangles(static_cast<size_t>(2 * k - 1))) {  // one bound check
+      for (int c = 0; c < k; ++c) {
+        *t++ = {lower(c).id, upper(c).id, lower(c + 1).id};
+        if (c + 1 < k) *t++ = {lower(c + 1).id, upper(c).id, upper(c + 1).id};
+      }
     }
     // Written in place: staged in a local array, the 4-byte stores were read back by the copy's
     // 16-byte loads, which the processor cannot forward (a stall per strip).
@@ -1102,6 +1121,17 @@ struct DirectSink {
       }
     }
     failed = failed || unpredicted;
+  }
+  bool wants_uv() const { return uv != nullptr; }
+  // Room for n triangles (without (u, v): !wants_uv()), filled by the caller; null past the bounds.
+  Triangle* append_triangles(size_t n) {
+    if (tri_n + n > tri_cap) {
+      failed = true;
+      return nullptr;
+    }
+    Triangle* at = tri + tri_n;
+    tri_n += n;
+    return at;
   }
   // Room for a strip of n ids, filled by the caller (who marks them used); null when past the bounds.
   uint32_t* append_strip(size_t n) {
