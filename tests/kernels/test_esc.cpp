@@ -648,6 +648,13 @@ TEST(Esc, InPlacePathGivesTheCopyPathsBits) {
           EXPECT_EQ(fast_stats.candidates, copy_stats.candidates) << what;
           EXPECT_EQ(fast_stats.inserted_vertices, copy_stats.inserted_vertices) << what;
           EXPECT_EQ(fast_stats.strips, copy_stats.strips) << what;
+          if (option == 0) {  // (u, v) per triangle takes another write path: the same triangles
+            EscParams with_uv = params;
+            with_uv.surface_data = true;
+            const Tessellation uv = tessellate_esc(model, topology, with_uv);
+            ASSERT_EQ(uv.triangles, fast.triangles) << what;
+            ASSERT_EQ(uv.strips, fast.strips) << what;
+          }
         }
       }
     }
