@@ -98,6 +98,24 @@ Vec3 project_derivative(const H& h, const H& dh) {
 
 namespace {
 
+// De Casteljau on the homogeneous control points, `count` of them (an int, or a
+// std::integral_constant: the same operations, unrolled), in the scratch `pts`.
+template <class Count>
+[[gnu::always_inline]] inline Vec3 de_casteljau_homogeneous(const std::vector<Vec3>& points,
+                                                            const std::vector<double>& weights, double t, Count count,
+                                                            H* pts) {
+  for (size_t k = 0; k < count; ++k) {
+    const double w = weights.empty() ? 1.0 : weights[k];
+    pts[k] = {w * points[k].x, w * points[k].y, w * points[k].z, w};
+  }
+  for (size_t r = 1; r < count; ++r) {
+    for (size_t k = 0; k + r < count; ++k) {
+      for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
+    }
+  }
+  return project(pts[0]);
+}
+
 // de_casteljau_curve for N control points: the same operations in the same order, with the loops'
 // bounds known (unrolled; the usual degrees 1 to 3).
 template <size_t N>
@@ -116,16 +134,7 @@ Vec3 de_casteljau_fixed(const std::vector<Vec3>& points, const std::vector<doubl
     return pts[0];
   }
   H pts[N];
-  for (size_t k = 0; k < N; ++k) {
-    const double w = weights.empty() ? 1.0 : weights[k];
-    pts[k] = {w * points[k].x, w * points[k].y, w * points[k].z, w};
-  }
-  for (size_t r = 1; r < N; ++r) {
-    for (size_t k = 0; k + r < N; ++k) {
-      for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
-    }
-  }
-  return project(pts[0]);
+  return de_casteljau_homogeneous(points, weights, t, std::integral_constant<size_t, N>(), pts);
 }
 
 }  // namespace
@@ -151,16 +160,7 @@ Vec3 de_casteljau_curve(const std::vector<Vec3>& points, const std::vector<doubl
   }
   const size_t count = points.size();
   if (count == 0) return Vec3(std::nan(""));
-  for (size_t k = 0; k < count; ++k) {
-    const double w = weights.empty() ? 1.0 : weights[k];
-    pts[k] = {w * points[k].x, w * points[k].y, w * points[k].z, w};
-  }
-  for (size_t r = 1; r < count; ++r) {
-    for (size_t k = 0; k + r < count; ++k) {
-      for (int c = 0; c < 4; ++c) pts[k][c] = (1.0 - t) * pts[k][c] + t * pts[k + 1][c];
-    }
-  }
-  return project(pts[0]);
+  return de_casteljau_homogeneous(points, weights, t, count, pts);
 }
 
 namespace {
