@@ -558,6 +558,35 @@ inline bool row_present(const PatchState& ps, const CoarseTriangle& ct, int k) {
   return ps.inserted(a0, b0) || ps.inserted(a1, b1);
 }
 
+// The triangles and the strip of a regular band between row k - 1 (upper(c), c < k) and row k
+// (lower(c), c <= k): the strip lower 0, upper 0, lower 1, ..., upper k-1, lower k and its
+// triangles in the zipper's order. Returns the strip's ids as written (null past the bounds).
+template <class Lower, class Upper, class Sink>
+uint32_t* write_regular_band(const Lattice& lat, int k, const Lower& lower, const Upper& upper, Sink& out) {
+  if (out.wants_uv()) {
+    for (int c = 0; c < k; ++c) {
+      out.triangle(lat, lower(c), upper(c), lower(c + 1));
+      if (c + 1 < k) out.triangle(lat, lower(c + 1), upper(c), upper(c + 1));
+    }
+  } else if (Triangle* t = out.append_triangles(static_cast<size_t>(2 * k - 1))) {  // one bound check
+    for (int c = 0; c < k; ++c) {
+      *t++ = {lower(c).id, upper(c).id, lower(c + 1).id};
+      if (c + 1 < k) *t++ = {lower(c + 1).id, upper(c).id, upper(c + 1).id};
+    }
+  }
+  // Written in place: staged in a local array, the 4-byte stores were read back by the copy's
+  // 16-byte loads, which the processor cannot forward (a stall per strip).
+  uint32_t* strip = out.append_strip(static_cast<size_t>(2 * k + 1));
+  if (strip) {
+    for (int c = 0; c < k; ++c) {
+      strip[2 * c] = lower(c).id;
+      strip[2 * c + 1] = upper(c).id;
+    }
+    strip[2 * k] = lower(k).id;
+  }
+  return strip;
+}
+
 // zip_rows for a regular band: rows k - 1 and k both complete (every node at its own lattice point,
 // at positions c / (k - 1) and c / k) on a patch without collapsed sides (all ids distinct). There
 // the zipper alternates, lower row first, never repeats a vertex and never flips a triangle, so
@@ -565,24 +594,9 @@ inline bool row_present(const PatchState& ps, const CoarseTriangle& ct, int k) {
 // same triangles in the same order without its tests.
 template <class Sink>
 void zip_regular_band(const Lattice& lat, const Row& upper, const Row& lower, Sink& out) {
-  const size_t k = upper.size();
-  if (out.wants_uv()) {
-    for (size_t c = 0; c < k; ++c) {
-      out.triangle(lat, lower[c], upper[c], lower[c + 1]);
-      if (c + 1 < k) out.triangle(lat, lower[c + 1], upper[c], upper[c + 1]);
-    }
-  } else if (Triangle* t = out.append_triangles(2 * k - 1)) {
-    for (size_t c = 0; c < k; ++c) {
-      *t++ = {lower[c].id, upper[c].id, lower[c + 1].id};
-      if (c + 1 < k) *t++ = {lower[c + 1].id, upper[c].id, upper[c + 1].id};
-    }
-  }
-  if (uint32_t* strip = out.append_strip(2 * k + 1)) {  // in place (see emit_full_coarse_triangle)
-    for (size_t c = 0; c < k; ++c) {
-      strip[2 * c] = lower[c].id;
-      strip[2 * c + 1] = upper[c].id;
-    }
-    strip[2 * k] = lower[k].id;
+  const int k = static_cast<int>(upper.size());
+  const auto from = [](const Row& row) { return [&row](int c) -> const Node& { return row[static_cast<size_t>(c)]; }; };
+  if (uint32_t* strip = write_regular_band(lat, k, from(lower), from(upper), out)) {
     out.mark_used(strip, strip + 2 * k + 1);
   }
 }
@@ -682,26 +696,7 @@ void emit_full_coarse_triangle(const PatchState& ps, const CoarseTriangle& ct, S
       const int a = ua + step * c, b = ub + step * c;
       return Node{ids[a * cols + b], a, b, 0, 1};
     };
-    if (out.wants_uv()) {
-      for (int c = 0; c < k; ++c) {
-        out.triangle(ps.lat, lower(c), upper(c), lower(c + 1));
-        if (c + 1 < k) out.triangle(ps.lat, lower(c + 1), upper(c), upper(c + 1));
-      }
-    } else if (Triangle* t = out.append_triangles(static_cast<size_t>(2 * k - 1))) {  // one bound check
-      for (int c = 0; c < k; ++c) {
-        *t++ = {lower(c).id, upper(c).id, lower(c + 1).id};
-        if (c + 1 < k) *t++ = {lower(c + 1).id, upper(c).id, upper(c + 1).id};
-      }
-    }
-    // Written in place: staged in a local array, the 4-byte stores were read back by the copy's
-    // 16-byte loads, which the processor cannot forward (a stall per strip).
-    if (uint32_t* strip = out.append_strip(static_cast<size_t>(2 * k + 1))) {
-      for (int c = 0; c < k; ++c) {
-        strip[2 * c] = lower(c).id;
-        strip[2 * c + 1] = upper(c).id;
-      }
-      strip[2 * k] = lower(k).id;
-    }
+    write_regular_band(ps.lat, k, lower, upper, out);
     // Row k is used (every row is in a strip): its ids marked once, not once per strip.
     uint32_t row[kMaxEscLevel + 2];
     for (int c = 0; c <= k; ++c) row[c] = lower(c).id;
