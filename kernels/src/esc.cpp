@@ -486,11 +486,7 @@ bool number_vertices(const EscInput& in, const PatchState& ps, PatchOutput& out)
       const double u = lat.u(a), v = lat.v(b);
       const SurfacePointEval& e = ps.sc.ev[s];
       out.positions.push_back(e.position);
-      if (params.normals) {
-        const Vec3 cr = glm::cross(e.du, e.dv);
-        const double len = glm::length(cr);
-        out.normals.push_back((len > 0.0 && std::isfinite(len)) ? cr / len : detail::surface_normal(ps.patch, u, v));
-      }
+      if (params.normals) out.normals.push_back(detail::unit_normal(e, ps.patch, u, v));
       if (params.surface_data) out.surface_points.push_back({pid, u, v});
     }
   }
@@ -1213,10 +1209,7 @@ void number_final(const EscInput& in, const PatchState& ps, const std::vector<ui
       if (normals) {
         const SurfacePointEval e = eval.finish(row, drow, bvb, &dbv[static_cast<size_t>(b * (dv + 1))]);
         result.positions[next] = e.position;
-        const Vec3 cr = glm::cross(e.du, e.dv);
-        const double len = glm::length(cr);
-        result.normals[next] =
-            (len > 0.0 && std::isfinite(len)) ? cr / len : detail::surface_normal(patch, lat.u(a), lat.v(b));
+        result.normals[next] = detail::unit_normal(e, patch, lat.u(a), lat.v(b));
       } else if (unit_weight) {
         result.positions[next] = finish_unit_weight_position(eval.origin(), dv, row, bvb);
       } else {
@@ -1397,8 +1390,10 @@ Tessellation tessellate_by_copy(const EscInput& in, uint64_t& strips, std::vecto
   return assemble(in.params, in.sides, outputs, strips);
 }
 
+// tessellate_esc in place where `direct` and the prediction holds (`took_direct`, when given, says
+// whether it did), else by copy.
 Tessellation tessellate_esc_with(const Model& model, const Topology& topology, const EscParams& params, EscStats* stats,
-                                 bool direct) {
+                                 bool direct, bool* took_direct = nullptr) {
   check_params(model, topology, params);
   const int P = params.level + 1;
   const size_t np = model.patches.size();
@@ -1407,9 +1402,9 @@ Tessellation tessellate_esc_with(const Model& model, const Topology& topology, c
   std::vector<Counts> patch_counts(np);
   uint64_t strips = 0;
   Tessellation result;
-  if (!direct || !tessellate_direct(in, result, strips, patch_counts)) {
-    result = tessellate_by_copy(in, strips, patch_counts);
-  }
+  const bool in_place = direct && tessellate_direct(in, result, strips, patch_counts);
+  if (!in_place) result = tessellate_by_copy(in, strips, patch_counts);
+  if (took_direct) *took_direct = in_place;
   if (stats) fill_stats(topology, sides, P, patch_counts, strips, *stats);
   return result;
 }
@@ -1426,14 +1421,9 @@ Tessellation tessellate_esc_by_copy(const Model& model, const Topology& topology
   return tessellate_esc_with(model, topology, params, stats, false);
 }
 bool esc_direct_path_applies(const Model& model, const Topology& topology, const EscParams& params) {
-  check_params(model, topology, params);
-  const int P = params.level + 1;
-  const Sides sides = decide_sides(model, topology, params, P);
-  const EscInput in{model, topology, params, sides, P};
-  std::vector<Counts> patch_counts(model.patches.size());
-  uint64_t strips = 0;
-  Tessellation result;
-  return tessellate_direct(in, result, strips, patch_counts);
+  bool took_direct = false;
+  tessellate_esc_with(model, topology, params, nullptr, true, &took_direct);
+  return took_direct;
 }
 }  // namespace detail
 

@@ -224,6 +224,12 @@ Vec3 surface_normal(const BezierPatch& patch, double u, double v) {
   return surface_normal(patch, u, v, control_box(patch).diagonal());
 }
 
+Vec3 unit_normal(const SurfacePointEval& e, const BezierPatch& patch, double u, double v) {
+  const Vec3 cr = glm::cross(e.du, e.dv);
+  const double len = glm::length(cr);
+  return (len > 0.0 && std::isfinite(len)) ? cr / len : surface_normal(patch, u, v);
+}
+
 Vec3 surface_normal(const BezierPatch& patch, double u, double v, double scale) {
   const double tiny = 1e-24 * scale * scale;
   // Step towards the patch centre until the tangent plane is defined; the first step is so small

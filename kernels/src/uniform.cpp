@@ -142,11 +142,7 @@ struct PatchPass {
   }
   void store_vertex(uint32_t id, const SurfacePointEval& e, double u, double v) const {
     out.positions[id] = e.position;
-    if (params.normals) {
-      const Vec3 cr = glm::cross(e.du, e.dv);
-      const double len = glm::length(cr);
-      out.normals[id] = (len > 0.0 && std::isfinite(len)) ? cr / len : detail::surface_normal(patch, u, v);
-    }
+    if (params.normals) out.normals[id] = detail::unit_normal(e, patch, u, v);
     if (params.surface_data) out.surface_points[id] = {pid, u, v};
   }
 };

@@ -38,6 +38,10 @@ Vec3 surface_normal(const BezierPatch& patch, double u, double v);
 // that take many normals of one patch.
 Vec3 surface_normal(const BezierPatch& patch, double u, double v, double box_diagonal);
 
+// The unit normal from an evaluation's partials at (u, v): du x dv normalised, or surface_normal's
+// limit where that cross product vanishes or overflows.
+Vec3 unit_normal(const SurfacePointEval& e, const BezierPatch& patch, double u, double v);
+
 // The matrix form Q(u, v) = [U][N B M^T][V] with [N B M^T] precomputed once per patch relative to
 // a patch-local origin (the control box centre), so coordinates far from the origin keep their
 // digits. Above kMatrixFormMaxDegree the power basis loses too many digits; there the same
