@@ -1554,10 +1554,13 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
   // that the rest are mostly settled by their composed bound without a projection.
   size_t batch = 32;
   while (next < count && cheap[order[next]] > largest) {
-    if (next >= sorted) {
+    if (next >= sorted) {  // the next block, twice the size of those before, selected and sorted
       budget::check("validation");
-      std::sort(order.begin() + static_cast<long>(sorted), order.end(), larger);
-      sorted = count;
+      const size_t more = std::min(count, 2 * sorted);
+      std::nth_element(order.begin() + static_cast<long>(sorted), order.begin() + static_cast<long>(more) - 1,
+                       order.end(), larger);
+      std::sort(order.begin() + static_cast<long>(sorted), order.begin() + static_cast<long>(more), larger);
+      sorted = more;
     }
     size_t end = next;
     while (end < sorted && end - next < batch && cheap[order[end]] > largest) ++end;
@@ -1599,13 +1602,25 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
   return est;
 }
 
+// The patches other than its own near each triangle, listed only for the triangles that have any.
+struct NearPatches {
+  static constexpr uint32_t kNone = ~uint32_t(0);
+  std::vector<uint32_t> slot;  // by triangle: its list in `lists`, or kNone
+  std::vector<std::vector<uint32_t>> lists;
+  // The list of triangle t, or null when it has none.
+  const std::vector<uint32_t>* of(size_t t) const {
+    return slot.empty() || slot[t] == kNone ? nullptr : &lists[slot[t]];
+  }
+};
+
 // Patches near each triangle other than its own (control boxes within 1.5 times the triangle's
 // own-patch estimate: a patch farther away than that cannot be the closer one), found by CGAL's
 // box intersection; each list sorted.
-std::vector<std::vector<uint32_t>> near_patches(const Model& model, const Tessellation& mesh, const Estimates& est,
-                                                const std::vector<Box>& patch_boxes) {
+NearPatches near_patches(const Model& model, const Tessellation& mesh, const Estimates& est,
+                         const std::vector<Box>& patch_boxes) {
   const size_t count = mesh.triangles.size();
-  std::vector<std::vector<uint32_t>> near(count);
+  NearPatches near;
+  near.slot.assign(count, NearPatches::kNone);
   using IdBox = CGAL::Box_intersection_d::Box_with_info_d<double, 3, size_t>;
   const double floor = 1e-12 * model_box(model).diagonal();
   std::vector<IdBox> tri_boxes, surface_boxes;
@@ -1627,10 +1642,15 @@ std::vector<std::vector<uint32_t>> near_patches(const Model& model, const Tessel
   }
   CGAL::box_intersection_d(tri_boxes.begin(), tri_boxes.end(), surface_boxes.begin(), surface_boxes.end(),
                            [&](const IdBox& a, const IdBox& b) {
-                             if (b.info() != mesh.triangle_patch[a.info()])
-                               near[a.info()].push_back(static_cast<uint32_t>(b.info()));
+                             if (b.info() == mesh.triangle_patch[a.info()]) return;
+                             uint32_t& slot = near.slot[a.info()];
+                             if (slot == NearPatches::kNone) {
+                               slot = static_cast<uint32_t>(near.lists.size());
+                               near.lists.emplace_back();
+                             }
+                             near.lists[slot].push_back(static_cast<uint32_t>(b.info()));
                            });
-  for (auto& list : near) std::sort(list.begin(), list.end());
+  for (auto& list : near.lists) std::sort(list.begin(), list.end());
   return near;
 }
 
@@ -1639,17 +1659,22 @@ std::vector<std::vector<uint32_t>> near_patches(const Model& model, const Tessel
 // stop once the next cannot exceed the running maximum, since matching to more patches only lowers
 // an estimate.
 void match_estimates_to_model(const Model& model, const Tessellation& mesh, const std::vector<Box>& patch_boxes,
-                              const std::vector<std::vector<uint32_t>>& near, Estimates& est) {
+                              const NearPatches& near, Estimates& est) {
   const size_t count = mesh.triangles.size();
-  std::vector<size_t> by_estimate(count);
-  std::iota(by_estimate.begin(), by_estimate.end(), size_t(0));
+  // Only triangles with a positive estimate can be visited (the walk stops at the first estimate
+  // at most the running maximum, which is never negative).
+  std::vector<size_t> by_estimate;
+  for (size_t t = 0; t < count; ++t) {
+    if (est.value[t] > 0.0) by_estimate.push_back(t);
+  }
   std::sort(by_estimate.begin(), by_estimate.end(), [&](size_t a, size_t b) { return est.value[a] > est.value[b]; });
   double running_max = 0.0;
   size_t visited = 0;
   for (size_t t : by_estimate) {
     if ((visited++ & 255u) == 0) budget::check("validation");
     if (est.value[t] <= running_max) break;
-    if (near[t].empty()) {
+    const std::vector<uint32_t>* others = near.of(t);
+    if (!others) {
       running_max = est.value[t];
       continue;
     }
@@ -1661,7 +1686,7 @@ void match_estimates_to_model(const Model& model, const Tessellation& mesh, cons
       const BezierPatch& own = model.patches[mesh.triangle_patch[t]];
       const Vec2 q0 = b.x * uv[0] + b.y * uv[1] + b.z * uv[2];
       double e = norm(x - eval(own, project(own, x, q0)));
-      for (uint32_t c : near[t]) {
+      for (uint32_t c : *others) {
         if (box_distance(patch_boxes[c], x) >= e) continue;
         const BezierPatch& other = model.patches[c];
         e = std::min(e, norm(x - eval(other, project_unseeded(other, x))));
@@ -1684,7 +1709,7 @@ struct Refinement {
   const CertifyOptions& options;
   const std::vector<PatchData>& pd;
   const std::vector<Box>& patch_boxes;
-  const std::vector<std::vector<uint32_t>>& near;
+  const NearPatches& near;
   const detail::MeshDistance& mesh_distance;
   double tau;
   int max_depth;  // of the subdivision per triangle (the options' or a shallower first pass's)
@@ -1783,7 +1808,7 @@ void refine_triangles(const Refinement& rf, const Estimates& est, TriangleResult
       }
       result = refine_triangle(
           rf.pd[patch], mesh.triangle_uv[t], triangle_corners(mesh, t), rf.tau, options.target_ratio, rf.max_depth, s,
-          false, nullptr, nearest, OtherPatches{&rf.pd, &rf.patch_boxes, &rf.near[t]},
+          false, nullptr, nearest, OtherPatches{&rf.pd, &rf.patch_boxes, rf.near.of(t)},
           options.in_domain && !options.domain_contains_patches, rf.cheap[t], &box_in_domain, est.midpoints_of(t));
       if (result.m2s_est < est.value[t]) {
         result.m2s_est = est.value[t];
@@ -1921,19 +1946,25 @@ std::vector<uint32_t> triangles_near_queries(const Tessellation& mesh, const std
       for (int y = lo[1]; y <= hi[1]; ++y)
         for (int z = lo[2]; z <= hi[2]; ++z) marked[index(x, y, z)] = 1;
   }
+  // Blocks of triangles in parallel, each chosen list in triangle order, joined in block order.
+  constexpr size_t kBlock = 16384;
+  std::vector<std::vector<uint32_t>> chosen_in((count + kBlock - 1) / kBlock);
+  tbb::parallel_for(size_t(0), chosen_in.size(), [&](size_t k) {
+    budget::check("validation");
+    for (size_t t = k * kBlock; t < std::min(count, (k + 1) * kBlock); ++t) {
+      const auto T = triangle_corners(mesh, t);
+      const Box b{glm::min(glm::min(T[0], T[1]), T[2]), glm::max(glm::max(T[0], T[1]), T[2])};
+      int lo[3], hi[3];
+      range(b, lo, hi);
+      bool chosen = false;
+      for (int x = lo[0]; x <= hi[0] && !chosen; ++x)
+        for (int y = lo[1]; y <= hi[1] && !chosen; ++y)
+          for (int z = lo[2]; z <= hi[2] && !chosen; ++z) chosen = marked[index(x, y, z)] != 0;
+      if (chosen) chosen_in[k].push_back(static_cast<uint32_t>(t));
+    }
+  });
   std::vector<uint32_t> subset;
-  for (size_t t = 0; t < count; ++t) {
-    if ((t & 0xffffu) == 0) budget::check("validation");
-    const auto T = triangle_corners(mesh, t);
-    const Box b{glm::min(glm::min(T[0], T[1]), T[2]), glm::max(glm::max(T[0], T[1]), T[2])};
-    int lo[3], hi[3];
-    range(b, lo, hi);
-    bool chosen = false;
-    for (int x = lo[0]; x <= hi[0] && !chosen; ++x)
-      for (int y = lo[1]; y <= hi[1] && !chosen; ++y)
-        for (int z = lo[2]; z <= hi[2] && !chosen; ++z) chosen = marked[index(x, y, z)] != 0;
-    if (chosen) subset.push_back(static_cast<uint32_t>(t));
-  }
+  for (const std::vector<uint32_t>& block : chosen_in) subset.insert(subset.end(), block.begin(), block.end());
   if (2 * subset.size() > count) return {};
   return subset;
 }
@@ -2198,7 +2229,7 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
   Estimates est = own_patch_estimates(mesh, pd, cheap, visited);
   std::vector<Box> patch_boxes(model.patches.size());
   for (size_t p = 0; p < model.patches.size(); ++p) patch_boxes[p] = control_box(model.patches[p]);
-  std::vector<std::vector<uint32_t>> near(mesh.triangles.size());
+  NearPatches near;
   if (model.patches.size() > 1 && !options.in_domain) {
     near = near_patches(model, mesh, est, patch_boxes);
     match_estimates_to_model(model, mesh, patch_boxes, near, est);
