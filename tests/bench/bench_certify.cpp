@@ -42,6 +42,6 @@ void BM_CertifyTeacup(benchmark::State& s) { run_certify(s, "teacup.bpt"); }
 void BM_CertifyTeapot(benchmark::State& s) { run_certify(s, "teapot.bpt"); }
 BENCHMARK(BM_CertifyTeaspoon)->Arg(4)->Arg(13)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_CertifyTeacup)->Arg(7)->Arg(22)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_CertifyTeapot)->Arg(13)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CertifyTeapot)->Arg(13)->Arg(42)->Unit(benchmark::kMillisecond);
 
 }  // namespace

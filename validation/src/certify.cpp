@@ -989,9 +989,11 @@ TriangleResult refine_triangle(const PatchData& P, const std::array<Vec2, 3>& uv
     LeafBounds& b = e.b;
     b.m2s = s2m_only ? 0.0 : e.lin;
     b.s2m = e.lin;
+    // Surface->mesh first: its bounds compose S over the same (u, v) triangle as `lin`, whose
+    // composition the scratch space still holds (the two directions share no data).
+    if (e.lin > tau) bound_surface_to_mesh(P, c, T, tau, s2m_only, s2m_targets, nearest, s, b, res);
     if (e.lin > tau && !s2m_only)
       bound_mesh_to_surface(P, c, e.lin, tau, others, own_uv_only, box_in_domain, s, b, res);
-    if (e.lin > tau) bound_surface_to_mesh(P, c, T, tau, s2m_only, s2m_targets, nearest, s, b, res);
     return e;
   };
   std::vector<Evaluated> heap{evaluate({{Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}, 0})};
@@ -1543,9 +1545,9 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
   std::vector<size_t> order(count);
   std::iota(order.begin(), order.end(), size_t(0));
   const auto larger = [&](size_t a, size_t b) { return cheap[a] > cheap[b]; };
-  // Usually only the first few thousand are visited: the largest 65,536 are sorted first (linear
-  // selection, then a small sort), the rest only if the walk gets there.
-  size_t sorted = std::min<size_t>(count, 65536);
+  // Usually only the first few thousand are visited: the largest 4,096 are sorted first (linear
+  // selection, then a small sort), blocks four times larger only when the walk gets there.
+  size_t sorted = std::min<size_t>(count, 4096);
   std::nth_element(order.begin(), order.begin() + static_cast<long>(sorted) - 1, order.end(), larger);
   std::sort(order.begin(), order.begin() + static_cast<long>(sorted), larger);
   double largest = 0.0;
@@ -1554,9 +1556,9 @@ Estimates own_patch_estimates(const Tessellation& mesh, const std::vector<PatchD
   // that the rest are mostly settled by their composed bound without a projection.
   size_t batch = 32;
   while (next < count && cheap[order[next]] > largest) {
-    if (next >= sorted) {  // the next block, twice the size of those before, selected and sorted
+    if (next >= sorted) {  // the next block, four times the size of those before, selected and sorted
       budget::check("validation");
-      const size_t more = std::min(count, 2 * sorted);
+      const size_t more = std::min(count, 4 * sorted);
       std::nth_element(order.begin() + static_cast<long>(sorted), order.begin() + static_cast<long>(more) - 1,
                        order.end(), larger);
       std::sort(order.begin() + static_cast<long>(sorted), order.begin() + static_cast<long>(more), larger);
