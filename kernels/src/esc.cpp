@@ -155,7 +155,7 @@ struct Scratch {
   Row upper, lower;
   std::vector<uint32_t> strip;
   std::vector<uint32_t> side_ids;
-  std::vector<double> bv, dbv;    // v-basis rows of the lattice columns (direct path)
+  std::vector<double> bv, dbv;    // v-basis rows of the lattice columns (v_basis_rows)
   std::vector<uint8_t> own_used;  // which own vertices the strips use (direct path)
 };
 
@@ -312,6 +312,19 @@ void mark_sides(const EscInput& in, const PatchState& ps) {
   }
 }
 
+// The v-basis rows (values, derivatives) of every lattice column, into the scratch's bv and dbv:
+// b's row starts at b (degree_v + 1).
+void v_basis_rows(const detail::PatchEvaluator& eval, const PatchState& ps) {
+  const int dv = ps.patch.degree_v, mb = ps.mb;
+  std::vector<double>& bv = ps.sc.bv;
+  std::vector<double>& dbv = ps.sc.dbv;
+  bv.resize(static_cast<size_t>((mb + 1) * (dv + 1)));
+  dbv.resize(bv.size());
+  for (int b = 0; b <= mb; ++b) {
+    eval.basis_row(dv, ps.lat.v(b), &bv[static_cast<size_t>(b * (dv + 1))], &dbv[static_cast<size_t>(b * (dv + 1))]);
+  }
+}
+
 // The surface on the whole lattice, one u-contraction per lattice row (as the uniform scheme):
 // the same numbers PatchEvaluator::evaluate gives, at a fraction of its cost. The partials (for
 // normals) only when `partials`; otherwise only the positions are set.
@@ -323,10 +336,9 @@ void evaluate_lattice(const PatchState& ps, bool partials) {
   std::vector<SurfacePointEval>& ev = ps.sc.ev;
   ev.resize(ps.sc.mask.size());
   const int du = patch.degree_u, dv = patch.degree_v;
-  std::vector<double> bv(static_cast<size_t>((mb + 1) * (dv + 1))), dbv(bv.size());
-  for (int b = 0; b <= mb; ++b) {
-    eval.basis_row(dv, lat.v(b), &bv[static_cast<size_t>(b * (dv + 1))], &dbv[static_cast<size_t>(b * (dv + 1))]);
-  }
+  v_basis_rows(eval, ps);
+  const std::vector<double>& bv = ps.sc.bv;
+  const std::vector<double>& dbv = ps.sc.dbv;
   double a_row[kMaxDegree + 1], da_row[kMaxDegree + 1];
   std::array<double, 4> row[kMaxDegree + 1], drow[kMaxDegree + 1];
   for (int a = 0; a <= na; ++a) {
@@ -343,6 +355,41 @@ void evaluate_lattice(const PatchState& ps, bool partials) {
     for (int b = 0; b <= mb; ++b) {
       ev[static_cast<size_t>(lat.index(a, b))] =
           eval.finish(row, drow, &bv[static_cast<size_t>(b * (dv + 1))], &dbv[static_cast<size_t>(b * (dv + 1))]);
+    }
+  }
+}
+
+// The surface positions at the lattice points of the coarse edges (the grid lines u = i/n,
+// v = j/m and the cell diagonals), all that decide_coarse_edges reads; the other points of ev are
+// left as they were. The same operations as evaluate_lattice's positions, so the same bits
+// (contract_u_position and finish_position are contract_u's row and finish's position).
+void evaluate_coarse_edges(const PatchState& ps) {
+  const BezierPatch& patch = ps.patch;
+  const Lattice& lat = ps.lat;
+  const int P = lat.P, na = ps.na, mb = ps.mb;
+  const detail::PatchEvaluator eval(patch);
+  std::vector<SurfacePointEval>& ev = ps.sc.ev;
+  ev.resize(ps.sc.mask.size());
+  const int du = patch.degree_u, dv = patch.degree_v;
+  v_basis_rows(eval, ps);
+  const std::vector<double>& bv = ps.sc.bv;
+  double a_row[kMaxDegree + 1], da_row[kMaxDegree + 1];
+  std::array<double, 4> row[kMaxDegree + 1];
+  const auto set = [&](int a, int b) {
+    ev[static_cast<size_t>(lat.index(a, b))].position =
+        eval.finish_position(row, &bv[static_cast<size_t>(b * (dv + 1))]);
+  };
+  for (int a = 0; a <= na; ++a) {
+    eval.basis_row(du, lat.u(a), a_row, da_row);
+    eval.contract_u_position(a_row, row);
+    const int s = a % P;  // a grid line of constant u (s = 0): every point; else the lines of
+    if (s == 0) {         // constant v and the diagonals crossing this row
+      for (int b = 0; b <= mb; ++b) set(a, b);
+      continue;
+    }
+    for (int b = 0; b <= mb; b += P) {
+      set(a, b);
+      if (b + s <= mb) set(a, b + s);
     }
   }
 }
@@ -990,7 +1037,7 @@ void plan_patch(const EscInput& in, size_t p, Scratch& sc, uint8_t* masks,
   const int P = in.P;
   const PatchState ps = patch_state(in, p, sc);
   mark_sides(in, ps);
-  if (ps.rho > 0.0) evaluate_lattice(ps, in.params.normals);
+  if (ps.rho > 0.0) evaluate_coarse_edges(ps);
   plan.counts = decide_coarse_edges(in, ps);
   force_collapsed_corners(P, ps, plan.counts);
   fill_rows(P, ps);
@@ -1180,13 +1227,9 @@ void number_final(const EscInput& in, const PatchState& ps, const std::vector<ui
   const detail::PatchEvaluator eval(patch);
   const int du = patch.degree_u, dv = patch.degree_v;
   const bool normals = in.params.normals;
-  std::vector<double>& bv = ps.sc.bv;
-  std::vector<double>& dbv = ps.sc.dbv;
-  bv.resize(static_cast<size_t>((mb + 1) * (dv + 1)));
-  dbv.resize(bv.size());
-  for (int b = 0; b <= mb; ++b) {
-    eval.basis_row(dv, lat.v(b), &bv[static_cast<size_t>(b * (dv + 1))], &dbv[static_cast<size_t>(b * (dv + 1))]);
-  }
+  v_basis_rows(eval, ps);
+  const std::vector<double>& bv = ps.sc.bv;
+  const std::vector<double>& dbv = ps.sc.dbv;
   // A polynomial patch in the power basis has weight sum exactly 1 (as in the uniform grid kernels).
   const bool unit_weight = !patch.rational() && eval.uses_power_basis();
   double a_row[kMaxDegree + 1], da_row[kMaxDegree + 1];
