@@ -325,10 +325,18 @@ void v_basis_rows(const detail::PatchEvaluator& eval, const PatchState& ps) {
   }
 }
 
-// The surface on the whole lattice, one u-contraction per lattice row (as the uniform scheme):
-// the same numbers PatchEvaluator::evaluate gives, at a fraction of its cost. The partials (for
-// normals) only when `partials`; otherwise only the positions are set.
-void evaluate_lattice(const PatchState& ps, bool partials) {
+// Which lattice points evaluate_lattice evaluates.
+enum class LatticePoints {
+  kAll,
+  kCoarseEdges,  // those of the coarse edges (grid lines u = i/n, v = j/m, cell diagonals): all
+                 // that decide_coarse_edges reads; positions only, the other points left as they were
+};
+
+// The surface on the lattice, one u-contraction per lattice row (as the uniform scheme): the same
+// numbers PatchEvaluator::evaluate gives, at a fraction of its cost. The partials (for normals)
+// only when `partials` (and every point); otherwise only the positions are set, the same bits
+// (contract_u_position and finish_position are contract_u's row and finish's position).
+void evaluate_lattice(const PatchState& ps, bool partials, LatticePoints points = LatticePoints::kAll) {
   const BezierPatch& patch = ps.patch;
   const Lattice& lat = ps.lat;
   const int na = ps.na, mb = ps.mb;
@@ -341,55 +349,31 @@ void evaluate_lattice(const PatchState& ps, bool partials) {
   const std::vector<double>& dbv = ps.sc.dbv;
   double a_row[kMaxDegree + 1], da_row[kMaxDegree + 1];
   std::array<double, 4> row[kMaxDegree + 1], drow[kMaxDegree + 1];
+  const auto position = [&](int a, int b) {
+    ev[static_cast<size_t>(lat.index(a, b))].position =
+        eval.finish_position(row, &bv[static_cast<size_t>(b * (dv + 1))]);
+  };
   for (int a = 0; a <= na; ++a) {
     eval.basis_row(du, lat.u(a), a_row, da_row);
+    if (!partials && points == LatticePoints::kCoarseEdges && a % lat.P != 0) {
+      // Off the grid lines of constant u: the lines of constant v and the diagonals crossing row a.
+      eval.contract_u_position(a_row, row);
+      const int s = a % lat.P;
+      for (int b = 0; b <= mb; b += lat.P) {
+        position(a, b);
+        if (b + s <= mb) position(a, b + s);
+      }
+      continue;
+    }
     if (!partials) {
       eval.contract_u_position(a_row, row);
-      for (int b = 0; b <= mb; ++b) {
-        ev[static_cast<size_t>(lat.index(a, b))].position =
-            eval.finish_position(row, &bv[static_cast<size_t>(b * (dv + 1))]);
-      }
+      for (int b = 0; b <= mb; ++b) position(a, b);
       continue;
     }
     eval.contract_u(a_row, da_row, row, drow);
     for (int b = 0; b <= mb; ++b) {
       ev[static_cast<size_t>(lat.index(a, b))] =
           eval.finish(row, drow, &bv[static_cast<size_t>(b * (dv + 1))], &dbv[static_cast<size_t>(b * (dv + 1))]);
-    }
-  }
-}
-
-// The surface positions at the lattice points of the coarse edges (the grid lines u = i/n,
-// v = j/m and the cell diagonals), all that decide_coarse_edges reads; the other points of ev are
-// left as they were. The same operations as evaluate_lattice's positions, so the same bits
-// (contract_u_position and finish_position are contract_u's row and finish's position).
-void evaluate_coarse_edges(const PatchState& ps) {
-  const BezierPatch& patch = ps.patch;
-  const Lattice& lat = ps.lat;
-  const int P = lat.P, na = ps.na, mb = ps.mb;
-  const detail::PatchEvaluator eval(patch);
-  std::vector<SurfacePointEval>& ev = ps.sc.ev;
-  ev.resize(ps.sc.mask.size());
-  const int du = patch.degree_u, dv = patch.degree_v;
-  v_basis_rows(eval, ps);
-  const std::vector<double>& bv = ps.sc.bv;
-  double a_row[kMaxDegree + 1], da_row[kMaxDegree + 1];
-  std::array<double, 4> row[kMaxDegree + 1];
-  const auto set = [&](int a, int b) {
-    ev[static_cast<size_t>(lat.index(a, b))].position =
-        eval.finish_position(row, &bv[static_cast<size_t>(b * (dv + 1))]);
-  };
-  for (int a = 0; a <= na; ++a) {
-    eval.basis_row(du, lat.u(a), a_row, da_row);
-    eval.contract_u_position(a_row, row);
-    const int s = a % P;  // a grid line of constant u (s = 0): every point; else the lines of
-    if (s == 0) {         // constant v and the diagonals crossing this row
-      for (int b = 0; b <= mb; ++b) set(a, b);
-      continue;
-    }
-    for (int b = 0; b <= mb; b += P) {
-      set(a, b);
-      if (b + s <= mb) set(a, b + s);
     }
   }
 }
@@ -1037,7 +1021,7 @@ void plan_patch(const EscInput& in, size_t p, Scratch& sc, uint8_t* masks,
   const int P = in.P;
   const PatchState ps = patch_state(in, p, sc);
   mark_sides(in, ps);
-  if (ps.rho > 0.0) evaluate_coarse_edges(ps);
+  if (ps.rho > 0.0) evaluate_lattice(ps, false, LatticePoints::kCoarseEdges);
   plan.counts = decide_coarse_edges(in, ps);
   force_collapsed_corners(P, ps, plan.counts);
   fill_rows(P, ps);
