@@ -1347,8 +1347,9 @@ double detail::certified_distance_lower(const Model& model, const Vec3& x, doubl
 namespace {
 
 // Lower bounds from the worst candidates of each direction.
-void certify_lowers(const Model& model, const Tessellation& mesh, const TriangleResults& results,
-                    const CertifyOptions& options, const detail::MeshDistance& dist, DistanceReport& report) {
+void certify_lowers(const Model& model, const std::vector<PatchData>& pd, const Tessellation& mesh,
+                    const TriangleResults& results, const CertifyOptions& options, const detail::MeshDistance& dist,
+                    DistanceReport& report) {
   const size_t k = std::min<size_t>(static_cast<size_t>(std::max(options.lower_candidates, 1)), results.size());
   std::vector<size_t> order(results.size());
   std::iota(order.begin(), order.end(), size_t(0));
@@ -1392,7 +1393,7 @@ void certify_lowers(const Model& model, const Tessellation& mesh, const Triangle
       low[i] = 0.0;  // not a point of the restricted surface: no witness
       return;
     }
-    low[i] = std::max(0.0, dist.distance(p) - dist.rounding_bound(p) - make_patch_data(patch).eval_rounding());
+    low[i] = std::max(0.0, dist.distance(p) - dist.rounding_bound(p) - pd[mesh.triangle_patch[t]].eval_rounding());
   });
   for (size_t i = 0; i < k; ++i) {
     if (low[i] > report.surface_to_mesh.lower) {
@@ -2378,7 +2379,7 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
   report.mesh_to_surface.certified = true;
   report.surface_to_mesh.upper = report.coverage_ok ? upper.s2m : kInf;
   report.surface_to_mesh.certified = report.coverage_ok;
-  certify_lowers(model, mesh, results, options, mesh_distance, report);
+  certify_lowers(model, pd, mesh, results, options, mesh_distance, report);
   set_hausdorff(report);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
