@@ -12,7 +12,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <cstring>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -682,8 +681,6 @@ void zip_rows(const Lattice& lat, const Row& upper, const Row& lower, std::vecto
   if (emitted > 0) out.strip(strip.data(), strip.data() + strip.size());
 }
 
-// The strips and triangles of every coarse triangle, band by band from the apex to the base.
-// `distinct_side_ids`: number_vertices' result (regular bands may skip the zipper's tests).
 // Whether every lattice point of the coarse triangle is inserted.
 inline bool coarse_triangle_full(const PatchState& ps, const CoarseTriangle& ct) {
   const int cols = ps.lat.cols;
@@ -733,6 +730,8 @@ void emit_full_coarse_triangle(const PatchState& ps, const CoarseTriangle& ct, S
   }
 }
 
+// The strips and triangles of every coarse triangle, band by band from the apex to the base.
+// `distinct_side_ids`: number_vertices' result (regular bands may skip the zipper's tests).
 template <class Sink>
 void build_strips(const EscInput& in, const PatchState& ps, bool distinct_side_ids, Sink& out) {
   const Lattice& lat = ps.lat;
