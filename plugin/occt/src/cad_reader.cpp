@@ -224,16 +224,36 @@ std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1,
     double first, last, c0, c1;
     bs->Bounds(first, last, c0, c1);
     if (!u_dir) first = c0, last = c1;
-    const double period = last - first;
-    if (lo >= first && hi <= last) return 0.0;
+    const double period = last - first, slack = 1e-9 * period;
+    // Within rounding of the surface's own window (a face from 0 on a surface whose first knot is
+    // 1.4e-15): kept there. Shifted by a period, such a face was cut at the last knot instead.
+    if (lo >= first - slack && hi <= last + slack) {
+      lo = std::max(lo, first), hi = std::min(hi, last);
+      return 0.0;
+    }
     if (hi - lo > period * (1.0 + 1e-9)) return 0.0;  // clamped below
     const double shift = std::floor((lo - first) / period) * period;
     lo -= shift, hi -= shift;
     const int k0 = u_dir ? bs->FirstUKnotIndex() : bs->FirstVKnotIndex();
     const int k1 = u_dir ? bs->LastUKnotIndex() : bs->LastVKnotIndex();
+    const auto knot = [&](int k) { return u_dir ? bs->UKnot(k) : bs->VKnot(k); };
     int origin = k0;
     for (int k = k0; k < k1; ++k) {
-      if ((u_dir ? bs->UKnot(k) : bs->VKnot(k)) <= lo) origin = k;
+      if (knot(k) <= lo) origin = k;
+    }
+    // The new window [knot, knot + period] must hold [lo, hi]: where the face reaches past it (it
+    // spans nearly a whole period from a point inside a knot span), a knot is inserted at lo (exact:
+    // the same surface) and the window starts there.
+    if (hi > knot(origin) + period + slack) {
+      if (u_dir)
+        bs->InsertUKnot(lo, 1, 0.0, true);
+      else
+        bs->InsertVKnot(lo, 1, 0.0, true);
+      const int n0 = u_dir ? bs->FirstUKnotIndex() : bs->FirstVKnotIndex();
+      const int n1 = u_dir ? bs->LastUKnotIndex() : bs->LastVKnotIndex();
+      for (int k = n0; k < n1; ++k) {
+        if (knot(k) <= lo) origin = k;
+      }
     }
     if (u_dir) bs->SetUOrigin(origin);
     else bs->SetVOrigin(origin);
@@ -246,6 +266,17 @@ std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1,
   double a, b, c, d;
   bs->Bounds(a, b, c, d);
   const double face_u0 = u0, face_u1 = u1, face_v0 = v0, face_v1 = v1;
+  // In a periodic direction the window holds the face's range (reorigin); past it by more than
+  // rounding, the patches would cover only part of the face, and its mesh would be certified against
+  // a surface that lacks the rest.
+  const auto outside = [](double lo, double hi, double first, double last) {
+    const double slack = 1e-9 * (last - first);
+    return lo < first - slack || hi > last + slack;
+  };
+  if ((u_periodic && outside(u0, u1, a, b)) || (v_periodic && outside(v0, v1, c, d))) {
+    reason = "the face's range in a periodic direction does not fit one period of its surface";
+    return {};
+  }
   u0 = std::max(u0, a), u1 = std::min(u1, b), v0 = std::max(v0, c), v1 = std::min(v1, d);
   const bool whole = u0 == a && u1 == b && v0 == c && v1 == d;
   GeomConvert_BSplineSurfaceToBezierSurface split =

@@ -7,11 +7,13 @@
 #include "occt_shape.hpp"
 #include "part_chords.hpp"
 
+#include "sagitta/evaluate.hpp"
 #include "sagitta/occt/part.hpp"
 #include "sagitta/solid_check.hpp"
 
 #include <BRepBndLib.hxx>
 #include <BRepBuilderAPI_MakeEdge.hxx>
+#include <BRepBuilderAPI_MakeFace.hxx>
 #include <BRepBuilderAPI_MakeWire.hxx>
 #include <BRepLib.hxx>
 #include <BRepMesh_IncrementalMesh.hxx>
@@ -30,6 +32,9 @@
 #include <Geom_SphericalSurface.hxx>
 #include <Geom_ToroidalSurface.hxx>
 #include <Poly_Triangulation.hxx>
+#include <TColStd_Array1OfInteger.hxx>
+#include <TColStd_Array1OfReal.hxx>
+#include <TColgp_Array2OfPnt.hxx>
 #include <TColgp_HArray1OfPnt2d.hxx>
 #include <TopExp.hxx>
 #include <TopExp_Explorer.hxx>
@@ -52,6 +57,7 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -278,6 +284,67 @@ TEST(Part, HelicalPipeAtEveryDensity) {
     }
   }
   std::filesystem::remove(file);
+}
+
+// A face of a periodic B-spline surface must be covered by its Bézier patches over its whole range.
+// A fillet's ring face (FreeCAD: two cylinders fused, the saddle edge filleted) runs over [0, P] of a
+// surface whose first knot is 1.4e-15: the face was shifted by a period and its window started at the
+// last knot, so the conversion dropped the last knot span; the mesh there was certified against
+// patches that lacked it (a proven lower bound of 1.22 where OCCT measures 0.094). A face that spans
+// nearly a period from inside a knot span was cut the same way. Here: a tube whose section is a
+// periodic quadratic B-spline (6 spans), faces over [0, 6] with the first knot at 1e-12, and over
+// [2.5, 8.4]; every point of the face's (u, v) range lies in a patch cell and the patch there is
+// OCCT's surface.
+TEST(Part, PeriodicBSplineFacesAreCoveredByTheirPatches) {
+  const double first = 1e-12;
+  TColgp_Array2OfPnt poles(1, 2, 1, 6);
+  for (int j = 1; j <= 6; ++j) {
+    const double a = 2.0 * M_PI * (j - 1) / 6.0, r = 10.0 + 2.0 * (j % 2);
+    poles(1, j) = gp_Pnt(r * std::cos(a), r * std::sin(a), 0.0);
+    poles(2, j) = gp_Pnt(0.8 * r * std::cos(a), 0.8 * r * std::sin(a), 5.0);
+  }
+  TColStd_Array1OfReal u_knots(1, 2), v_knots(1, 7);
+  TColStd_Array1OfInteger u_mults(1, 2), v_mults(1, 7);
+  u_knots(1) = 0.0, u_knots(2) = 1.0, u_mults(1) = u_mults(2) = 2;
+  for (int k = 1; k <= 7; ++k) v_knots(k) = (k - 1) + (k == 1 || k == 7 ? first : 0.0), v_mults(k) = 1;
+  Handle(Geom_BSplineSurface) surface =
+      new Geom_BSplineSurface(poles, u_knots, v_knots, u_mults, v_mults, 1, 2, false, true);
+  ASSERT_TRUE(surface->IsVPeriodic());
+  for (const auto& [v0, v1] : {std::pair<double, double>{0.0, 6.0}, {2.5, 8.4}}) {
+    const TopoDS_Face face = BRepBuilderAPI_MakeFace(surface, 0.0, 1.0, v0, v1, 1e-7).Face();
+    std::ostringstream text;
+    BRepTools::Write(face, text);
+    PartOptions options;
+    options.scheme.level = -1;
+    options.scheme.segments = 2;
+    const PartMesh part = mesh_part_brep_string(text.str(), "periodic tube", options);
+    ASSERT_EQ(part.faces.size(), 1u);
+    const PartFace& f = part.faces[0];
+    ASSERT_EQ(f.status, "tessellated") << f.reason;
+    EXPECT_LE(f.v_breaks.front(), v0 + 1e-9) << v0;
+    EXPECT_GE(f.v_breaks.back(), v1 - 1e-9) << v1;
+    const size_t nv = f.v_breaks.size() - 1;
+    double worst = 0.0;
+    for (int a = 0; a <= 8; ++a) {
+      for (int b = 0; b <= 200; ++b) {
+        const double u = a / 8.0, v = v0 + (v1 - v0) * b / 200.0;
+        const auto cell = [](const std::vector<double>& breaks, double x) {
+          size_t k = 0;
+          while (k + 2 < breaks.size() && x > breaks[k + 1]) ++k;
+          return k;
+        };
+        const size_t i = cell(f.u_breaks, u), j = cell(f.v_breaks, v);
+        double s = (u - f.u_breaks[i]) / (f.u_breaks[i + 1] - f.u_breaks[i]);
+        const double t = (v - f.v_breaks[j]) / (f.v_breaks[j + 1] - f.v_breaks[j]);
+        if (f.reversed) s = 1.0 - s;
+        const auto x = de_casteljau<double>(part.model.patches[static_cast<size_t>(f.first_patch) + i * nv + j], s, t);
+        const gp_Pnt y = surface->Value(u, v);
+        worst = std::max(worst, std::hypot(x[0] - y.X(), x[1] - y.Y(), x[2] - y.Z()));
+      }
+    }
+    EXPECT_LT(worst, 1e-9) << "face over [" << v0 << ", " << v1 << "]: a point of the face off its patches by "
+                           << worst;
+  }
 }
 
 // The ESC scheme inside the faces (threshold relative to the part's size): every face tessellated,
