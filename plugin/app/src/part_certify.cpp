@@ -435,6 +435,50 @@ double triangle_distance(const Vec3& p, const std::array<Vec3, 3>& t) {
   return glm::length(p - (a + (vb / area) * ab + (vc / area) * ac));
 }
 
+Vec2 periodic_difference(const Grid& g, Vec2 d);
+
+// Whether every chord and its trace lie in the grid's (U, V) range. In a non-periodic direction
+// within 1 % of the range (p-curves of edges along a side wander off it by up to 1e-3 of the range,
+// ec_exhaust-A's B-spline faces: the side strips' tolerance). In a periodic direction whose grid
+// spans less than a period, the chord moved by whole periods next to the grid, its points taken
+// along it (periodic_difference), within 1e-6 of the range (the tiling's matching tolerance); a grid
+// of a whole period holds every point. Elsewhere the certificate clamps points onto the grid, so a
+// face whose patches miss part of it (a conversion that dropped a knot span) would be certified
+// against a surface that lacks that part.
+bool chords_inside_grid(const Grid& g) {
+  const double range = g.range();
+  const Vec2 front(g.f.u_breaks.front(), g.f.v_breaks.front()), back(g.f.u_breaks.back(), g.f.v_breaks.back());
+  const Vec2 period(g.f.u_period, g.f.v_period);
+  const auto inside = [&](const Vec2& w, const Vec2& start) {
+    for (int axis = 0; axis < 2; ++axis) {
+      const double x = w[axis], lo = front[axis], hi = back[axis], p = period[axis];
+      if (!(p > 0.0)) {
+        if (!(x >= lo - 1e-2 * range && x <= hi + 1e-2 * range)) return false;
+        continue;
+      }
+      if (hi - lo >= p * (1.0 - 1e-9)) continue;
+      // The chord's start moved by whole periods to the copy nearest the grid, the point with it.
+      const double shift = p * std::floor((start[axis] - lo) / p);
+      const double slack = 1e-6 * range;
+      bool found = false;
+      for (const double k : {-p, 0.0, p}) {
+        const double y0 = start[axis] - shift + k, y = x - shift + k;
+        if (y0 >= lo - slack && y0 <= hi + slack && y >= lo - slack && y <= hi + slack) found = true;
+      }
+      if (!found) return false;
+    }
+    return true;
+  };
+  for (const occt::BoundaryChord& c : g.f.chords) {
+    const auto along = [&](const Vec2& w) { return c.uv_a + periodic_difference(g, w - c.uv_a); };
+    if (!inside(c.uv_a, c.uv_a) || !inside(along(c.uv_b), c.uv_a)) return false;
+    for (const Vec2& w : c.trace) {
+      if (!inside(along(w), c.uv_a)) return false;
+    }
+  }
+  return true;
+}
+
 // The surface point of the face at (U, V) (moved by whole periods into the grid's range, clamped
 // onto it).
 Vec3 surface_point(const Model& model, const Grid& g, Vec2 uv) {
@@ -538,8 +582,6 @@ double slice_bound(double s_lo, double s_hi, double enough, double useless, Boun
     if (!push(top.s0, mid) || !push(mid, top.s1)) return kInf;
   }
 }
-
-Vec2 periodic_difference(const Grid& g, Vec2 d);
 
 // The coordinates of chord c's rectangles (metric): s along the chord from uv_a, w across it.
 struct ChordFrame {
@@ -1482,6 +1524,12 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   const Grid g(f);
   if (g.nu * g.nv != static_cast<size_t>(f.patch_count) || g.nu == 0) {
     fc.reason = "the face's patch grid is unknown";
+    return fc;
+  }
+  if (!chords_inside_grid(g)) {
+    fc.reason =
+        "the face's trimming curves leave its patches' parameter range (its surface's Bézier form does not cover the "
+        "face)";
     return fc;
   }
   std::string reason;

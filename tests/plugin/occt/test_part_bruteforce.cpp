@@ -678,6 +678,32 @@ TEST_F(PlantedDefects, MissingTriangleOnAHoleIsNotCertified) {
   }
 }
 
+// (d) A face's patches missing part of it: its grid's last break moved to the middle of the last span
+// in a periodic direction, as when OCCT's Bézier conversion of a periodic B-spline dropped the last
+// knot span (a fillet's ring face, whose mesh was then certified against the patches, with a proven
+// lower bound 13x OCCT's distance). Its trimming curves leave the grid: the face is not certified,
+// with that reason, and the part has no certified upper bound.
+TEST_F(PlantedDefects, FaceWhosePatchesMissPartOfItIsNotCertified) {
+  int face = -1;
+  for (const occt::PartFace& f : p.part.faces) {
+    if (face < 0 && (f.u_period > 0.0 || f.v_period > 0.0) && p.cert.faces[f.face_index].certified &&
+        p.cert.faces[f.face_index].route == "loops")
+      face = f.face_index;
+  }
+  ASSERT_GE(face, 0) << "no certified face of a periodic surface on the loops route";
+  occt::PartMesh cut = p.part;
+  occt::PartFace& f = cut.faces[static_cast<size_t>(face)];
+  std::vector<double>& breaks = f.u_period > 0.0 ? f.u_breaks : f.v_breaks;
+  breaks.back() = 0.5 * (breaks[breaks.size() - 2] + breaks.back());
+  const app::PartCertificate cert = app::certify_part(cut);
+  const app::FaceCertificate& fc = cert.faces[static_cast<size_t>(face)];
+  EXPECT_FALSE(fc.certified) << f.name;
+  EXPECT_NE(fc.reason.find("leave its patches' parameter range"), std::string::npos) << fc.reason;
+  EXPECT_FALSE(cert.all_certified);
+  EXPECT_FALSE(std::isfinite(cert.distance.hausdorff.upper));
+  expect_other_faces_unchanged(p.cert, cert, {face});
+}
+
 // (c) Every triangle of one face flipped (corners and their (U, V) swapped): the distance does not
 // depend on orientation, so the face keeps its certificate; but the face's boundary edges now run in
 // the same direction as its neighbours': validate_part reports them as inconsistently oriented, the
