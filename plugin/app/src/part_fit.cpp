@@ -189,7 +189,13 @@ PartFit fit_part(const std::function<occt::PartMesh(const occt::PartOptions&)>& 
     // Met on the certified faces only: the others may be certified at a finer N (a coarse grid's
     // loops crossing themselves in (U, V)); the rule below stops when the same faces fail twice.
     if (met && run.certificate.all_certified) break;
-    if (run.certificate.faces_certified == 0) {
+    // No face certified for reasons a finer mesh cannot change. A face whose triangles did not tile
+    // its domain may tile it at a finer N (a doubly periodic B-spline torus at 1 segment per side:
+    // its 3D corners are one vertex), so the doubling goes on for it.
+    const bool finer_may_certify =
+        std::any_of(run.certificate.faces.begin(), run.certificate.faces.end(),
+                    [](const FaceCertificate& f) { return !f.certified && f.mesh_dependent; });
+    if (run.certificate.faces_certified == 0 && !finer_may_certify) {
       fit.reason = "cannot be certified: " + uncertified_faces(run);
       return finish(n, {}, std::move(run));
     }
