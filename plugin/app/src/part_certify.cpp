@@ -449,31 +449,37 @@ bool chords_inside_grid(const Grid& g) {
   const double range = g.range();
   const Vec2 front(g.f.u_breaks.front(), g.f.v_breaks.front()), back(g.f.u_breaks.back(), g.f.v_breaks.back());
   const Vec2 period(g.f.u_period, g.f.v_period);
-  const auto inside = [&](const Vec2& w, const Vec2& start) {
+  // The point start + d, d taken along the chord (periodic_difference).
+  const auto inside = [&](const Vec2& start, const Vec2& d) {
     for (int axis = 0; axis < 2; ++axis) {
-      const double x = w[axis], lo = front[axis], hi = back[axis], p = period[axis];
+      const double lo = front[axis], hi = back[axis], p = period[axis];
       if (!(p > 0.0)) {
+        const double x = start[axis] + d[axis];
         if (!(x >= lo - 1e-2 * range && x <= hi + 1e-2 * range)) return false;
         continue;
       }
       if (hi - lo >= p * (1.0 - 1e-9)) continue;
-      // The chord's start moved by whole periods to the copy nearest the grid, the point with it.
-      const double shift = p * std::floor((start[axis] - lo) / p);
-      const double slack = 1e-6 * range;
+      // The chord's start moved by whole periods next to the grid, the point with it. A chord half a
+      // period long (BRepMesh's two chords round a cylinder) runs either way round: both are tried.
+      const double shift = p * std::floor((start[axis] - lo) / p), slack = 1e-6 * range;
+      const bool half = std::abs(std::abs(d[axis]) - 0.5 * p) <= 1e-9 * p;
       bool found = false;
       for (const double k : {-p, 0.0, p}) {
-        const double y0 = start[axis] - shift + k, y = x - shift + k;
-        if (y0 >= lo - slack && y0 <= hi + slack && y >= lo - slack && y <= hi + slack) found = true;
+        const double y0 = start[axis] - shift + k;
+        if (!(y0 >= lo - slack && y0 <= hi + slack)) continue;
+        for (const double e : {d[axis], half ? d[axis] - std::copysign(p, d[axis]) : d[axis]}) {
+          found = found || (y0 + e >= lo - slack && y0 + e <= hi + slack);
+        }
       }
       if (!found) return false;
     }
     return true;
   };
   for (const occt::BoundaryChord& c : g.f.chords) {
-    const auto along = [&](const Vec2& w) { return c.uv_a + periodic_difference(g, w - c.uv_a); };
-    if (!inside(c.uv_a, c.uv_a) || !inside(along(c.uv_b), c.uv_a)) return false;
+    const auto along = [&](const Vec2& w) { return periodic_difference(g, w - c.uv_a); };
+    if (!inside(c.uv_a, Vec2(0.0)) || !inside(c.uv_a, along(c.uv_b))) return false;
     for (const Vec2& w : c.trace) {
-      if (!inside(along(w), c.uv_a)) return false;
+      if (!inside(c.uv_a, along(w))) return false;
     }
   }
   return true;
