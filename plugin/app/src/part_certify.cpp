@@ -1859,6 +1859,15 @@ nlohmann::json part_certificate_json(const occt::PartMesh& part, const PartCerti
       row["chords"] = f.chords, row["sliver"] = f.sliver;
       row["triangles_mesh_to_surface"] = number_or_null(f.triangles_mesh_to_surface);
     }
+    // Where each direction's lower bound is reached: a mesh point of the face's triangles (its
+    // distance to the face is at least the bound), a point of the face (likewise to the triangles).
+    for (const auto& [key, interval] :
+         {std::pair<const char*, const DistanceInterval*>{"mesh_to_surface", &f.mesh_to_surface},
+          {"surface_to_mesh", &f.surface_to_mesh}}) {
+      if (interval->lower > 0.0)
+        row[key] = {{"lower", interval->lower},
+                    {"witness", {interval->witness.x, interval->witness.y, interval->witness.z}}};
+    }
     row["triangles"] = pf.triangles;
     if (pf.segments > 0) row["segments"] = pf.segments, row["grid"] = {pf.segments_u, pf.segments_v};
     if (pf.graded_u > 0) row["graded_grid"] = {pf.graded_u, pf.graded_v}, row["graded_segments"] = pf.graded_segments;

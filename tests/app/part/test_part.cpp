@@ -248,7 +248,25 @@ TEST(AppPart, TrimmedFacesAreCertifiedOrSayWhy) {
   }
   EXPECT_GE(2 * trimmed_certified, trimmed);
   expect_face_bounds_hold(part, cert);
-  EXPECT_EQ(app::part_certificate_json(part, cert)["certified"], cert.all_certified);
+  const nlohmann::json json = app::part_certificate_json(part, cert);
+  EXPECT_EQ(json["certified"], cert.all_certified);
+  // Each face's lower bounds with their witnesses: the mesh -> face witness is a point of the mesh
+  // (on one of the face's triangles), at most the face's upper bound away from the face.
+  int witnesses = 0;
+  for (const nlohmann::json& row : json["faces"]) {
+    if (!row.contains("mesh_to_surface")) continue;
+    const nlohmann::json& w = row["mesh_to_surface"]["witness"];
+    const Vec3 x(w[0].get<double>(), w[1].get<double>(), w[2].get<double>());
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Triangle& t : part.mesh.triangles)
+      nearest = std::min(nearest, test::point_triangle_distance(x, part.mesh.positions[t[0]], part.mesh.positions[t[1]],
+                                                                part.mesh.positions[t[2]]));
+    EXPECT_LE(nearest, 1e-9 * model_box(part.model).diagonal()) << row["face"];
+    EXPECT_GT(row["mesh_to_surface"]["lower"].get<double>(), 0.0) << row["face"];
+    if (row["upper"].is_number()) EXPECT_LE(row["mesh_to_surface"]["lower"].get<double>(), row["upper"].get<double>());
+    ++witnesses;
+  }
+  EXPECT_GT(witnesses, 0);
 }
 
 // Planes with holes: the mesh covers the slivers between a hole's circle and its chords, outside the
