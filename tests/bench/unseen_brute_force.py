@@ -58,23 +58,20 @@ m2s = 0.0
 for q in samples:
     m2s = max(m2s, distance_to_faces(V(*q)))
 def pt_tri(q):
-    # distance from q to every triangle (Ericson, vectorised)
-    ab, ac, ap = B - A, C - A, q - A
-    d1 = (ab * ap).sum(1); d2 = (ac * ap).sum(1)
-    bp = q - B; d3 = (ab * bp).sum(1); d4 = (ac * bp).sum(1)
-    cp = q - C; d5 = (ab * cp).sum(1); d6 = (ac * cp).sum(1)
-    va = d3 * d6 - d5 * d4; vb = d5 * d2 - d1 * d6; vc = d1 * d4 - d3 * d2
-    den = va + vb + vc; den[den == 0] = 1e-300
-    v = vb / den; w = vc / den
-    X = A + ab * v[:, None] + ac * w[:, None]
-    # regions
-    m = (d1 <= 0) & (d2 <= 0); X[m] = A[m]
-    m = (d3 >= 0) & (d4 <= d3); X[m] = B[m]
-    m = (d6 >= 0) & (d5 <= d6); X[m] = C[m]
-    m = (vc <= 0) & (d1 >= 0) & (d3 <= 0) & ~((d1 <= 0) & (d2 <= 0)); t = d1 / np.where(d1 - d3 == 0, 1e-300, d1 - d3); X[m] = (A + ab * t[:, None])[m]
-    m = (vb <= 0) & (d2 >= 0) & (d6 <= 0) & ~((d1 <= 0) & (d2 <= 0)); t = d2 / np.where(d2 - d6 == 0, 1e-300, d2 - d6); X[m] = (A + ac * t[:, None])[m]
-    m = (va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0); t = (d4 - d3) / np.where((d4 - d3) + (d5 - d6) == 0, 1e-300, (d4 - d3) + (d5 - d6)); X[m] = (B + (C - B) * t[:, None])[m]
-    return np.sqrt(((X - q) ** 2).sum(1)).min()
+    """Distance from q to the nearest triangle (vectorised): the plane distance where q projects inside
+    the triangle, else the distance to its nearest edge. (The closest point by barycentric
+    coordinates, Ericson's form, erred by 5e-9 on a chamfer's 60 x 0.035 triangles.)"""
+    ab, ac = B - A, C - A
+    n = np.cross(ab, ac); nn = (n * n).sum(1)
+    side = lambda x, y: (np.cross(y - x, q - x) * n).sum(1) >= 0
+    inside = (nn > 0) & side(A, B) & side(B, C) & side(C, A)
+    plane = np.abs(((q - A) * n).sum(1)) / np.sqrt(np.where(nn > 0, nn, 1.0))
+    def segment(x, y):
+        d = y - x; dd = (d * d).sum(1)
+        t = np.clip(((q - x) * d).sum(1) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+        return np.sqrt(((q - x - d * t[:, None]) ** 2).sum(1))
+    edges = np.minimum(np.minimum(segment(A, B), segment(B, C)), segment(C, A))
+    return np.where(inside, np.minimum(plane, edges), edges).min()
 s2m = 0.0; worst_face = None; count = 0
 per_face = max(30, 3000 // max(1, len(shape.Faces)))
 n = int(per_face ** 0.5) + 1
