@@ -14,6 +14,7 @@
 #include <BRepBndLib.hxx>
 #include <BRepBuilderAPI_MakeEdge.hxx>
 #include <BRepBuilderAPI_MakeFace.hxx>
+#include <BRepBuilderAPI_MakePolygon.hxx>
 #include <BRepBuilderAPI_MakeWire.hxx>
 #include <BRepLib.hxx>
 #include <BRepMesh_IncrementalMesh.hxx>
@@ -44,6 +45,7 @@
 #include <TopoDS_Face.hxx>
 #include <gp_Ax3.hxx>
 #include <gp_Circ.hxx>
+#include <gp_Pln.hxx>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -345,6 +347,47 @@ TEST(Part, PeriodicBSplineFacesAreCoveredByTheirPatches) {
     EXPECT_LT(worst, 1e-9) << "face over [" << v0 << ", " << v1 << "]: a point of the face off its patches by "
                            << worst;
   }
+}
+
+// A part far from the origin keeps its chords' traces and deviations: a plane's (U, V) are OCCT's
+// (u, v), decided by comparing its patches with OCCT's surface. Compared in (U, V) to 1e-12 of the
+// range, a plane 1e6 away failed (its points round by 1e-10, the (U, V) solved for them came out
+// 5e-10 off): its circles' chords lost their traces and their deviation grew 10 % (the certificate
+// then found no lower bound on a filleted plate's planes). A square plate with a round hole, its
+// plane placed at the origin and at (1e6, -2e6, 5e5) as a STEP file from FreeCAD places it (its
+// parameters from 2 on: at 0 the solve happened to land exactly).
+TEST(Part, ChordsOfAFaceFarFromTheOriginKeepTheirTraces) {
+  const auto plate = [](const gp_Pnt& origin) {
+    const gp_Pln plane(gp_Ax3(origin, gp::DZ(), gp::DX()));
+    const auto at = [&](double x, double y) { return gp_Pnt(origin.X() + x, origin.Y() + y, origin.Z()); };
+    BRepBuilderAPI_MakePolygon square(at(2, 2), at(28, 2), at(28, 18), at(2, 18), true);
+    const gp_Circ circle(gp_Ax2(at(10, 10), gp::DZ()), 4.0);
+    TopoDS_Wire hole = BRepBuilderAPI_MakeWire(BRepBuilderAPI_MakeEdge(circle).Edge()).Wire();
+    hole.Reverse();
+    BRepBuilderAPI_MakeFace face(plane, square.Wire());
+    face.Add(hole);
+    std::ostringstream out;
+    BRepTools::Write(face.Face(), out);
+    return out.str();
+  };
+  PartOptions options;
+  options.scheme.level = -1;
+  options.scheme.segments = 4;
+  const PartMesh here = mesh_part_brep_string(plate(gp_Pnt(0, 0, 0)), "plate", options);
+  const PartMesh there = mesh_part_brep_string(plate(gp_Pnt(1e6, -2e6, 5e5)), "far plate", options);
+  ASSERT_EQ(here.faces.size(), 1u);
+  ASSERT_EQ(there.faces.size(), 1u);
+  const std::vector<BoundaryChord>& a = here.faces[0].chords;
+  const std::vector<BoundaryChord>& b = there.faces[0].chords;
+  ASSERT_EQ(a.size(), b.size());
+  int traced = 0;
+  for (size_t k = 0; k < a.size(); ++k) {
+    if (a[k].trace.size() <= 2) continue;
+    ++traced;
+    EXPECT_EQ(b[k].trace.size(), a[k].trace.size()) << "chord " << k;
+    EXPECT_NEAR(b[k].deviation, a[k].deviation, 1e-6 * a[k].deviation) << "chord " << k;
+  }
+  EXPECT_GE(traced, 3);
 }
 
 // The ESC scheme inside the faces (threshold relative to the part's size): every face tessellated,
