@@ -5,6 +5,7 @@
 #include "sagitta/evaluate.hpp"
 
 #include "brute_force.hpp"
+#include "part_points.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -59,7 +60,7 @@ testing::AssertionResult fit_meets(const app::PartFit& fit, double target) {
   return testing::AssertionSuccess();
 }
 
-Vec3 face_point_uv(const occt::PartMesh& part, const occt::PartFace& f, double U, double V);
+using test::face_point_uv;
 
 // The exact surface point of face f at a point w of patch `patch`'s (s, t) frame (w may lie outside
 // [0, 1]^2, in a neighbouring patch of the face's grid): located in the grid, evaluated in long double.
@@ -70,23 +71,6 @@ Vec3 face_point(const occt::PartMesh& part, const occt::PartFace& f, uint32_t pa
   const double U = f.u_breaks[i] + s * (f.u_breaks[i + 1] - f.u_breaks[i]);
   const double V = f.v_breaks[j] + w.y * (f.v_breaks[j + 1] - f.v_breaks[j]);
   return face_point_uv(part, f, U, V);
-}
-
-// The exact surface point of face f at (U, V) of its patch grid, evaluated in long double.
-Vec3 face_point_uv(const occt::PartMesh& part, const occt::PartFace& f, double U, double V) {
-  const size_t nv = f.v_breaks.size() - 1;
-  const auto span = [](const std::vector<double>& b, double x) {
-    size_t k = 0;
-    while (k + 2 < b.size() && x > b[k + 1]) ++k;
-    return k;
-  };
-  const size_t I = span(f.u_breaks, U), J = span(f.v_breaks, V);
-  double S = (U - f.u_breaks[I]) / (f.u_breaks[I + 1] - f.u_breaks[I]);
-  const double T = (V - f.v_breaks[J]) / (f.v_breaks[J + 1] - f.v_breaks[J]);
-  S = std::clamp(S, 0.0, 1.0);
-  const BezierPatch& p = part.model.patches[static_cast<size_t>(f.first_patch) + I * nv + J];
-  const auto x = de_casteljau<long double>(p, f.reversed ? 1.0 - S : S, std::clamp(T, 0.0, 1.0));
-  return Vec3(static_cast<double>(x[0]), static_cast<double>(x[1]), static_cast<double>(x[2]));
 }
 
 constexpr std::array<Vec3, 10> kSampleBarycentrics = {Vec3(1, 0, 0),       Vec3(0, 1, 0),       Vec3(0, 0, 1),
@@ -263,7 +247,9 @@ TEST(AppPart, TrimmedFacesAreCertifiedOrSayWhy) {
                                                                 part.mesh.positions[t[2]]));
     EXPECT_LE(nearest, 1e-9 * model_box(part.model).diagonal()) << row["face"];
     EXPECT_GT(row["mesh_to_surface"]["lower"].get<double>(), 0.0) << row["face"];
-    if (row["upper"].is_number()) EXPECT_LE(row["mesh_to_surface"]["lower"].get<double>(), row["upper"].get<double>());
+    if (row["upper"].is_number()) {
+      EXPECT_LE(row["mesh_to_surface"]["lower"].get<double>(), row["upper"].get<double>());
+    }
     ++witnesses;
   }
   EXPECT_GT(witnesses, 0);
@@ -726,7 +712,9 @@ TEST(AppPart, FitNeedsNoMoreTrianglesThanBRepMeshOnBug24595) {
   const double target = 1e-3 * points_box_diagonal(mesh_part(path, 0).mesh.positions);
   const app::PartFit fit = fit_file(path, target);
   ASSERT_TRUE(fit_meets(fit, target));
-  if (!fit.face_edge_tolerance.empty()) ASSERT_EQ(fit.face_edge_tolerance.size(), fit.run.part.faces.size());
+  if (!fit.face_edge_tolerance.empty()) {
+    ASSERT_EQ(fit.face_edge_tolerance.size(), fit.run.part.faces.size());
+  }
   size_t brepmesh = 0;
   double deflection = 4.0 * target;
   for (; deflection >= target / 32.0 && brepmesh == 0; deflection /= 2.0) {

@@ -7,7 +7,7 @@
 #include "occt_shape.hpp"
 #include "part_chords.hpp"
 
-#include "sagitta/evaluate.hpp"
+#include "part_points.hpp"
 #include "sagitta/occt/part.hpp"
 #include "sagitta/solid_check.hpp"
 
@@ -325,23 +325,13 @@ TEST(Part, PeriodicBSplineFacesAreCoveredByTheirPatches) {
     ASSERT_EQ(f.status, "tessellated") << f.reason;
     EXPECT_LE(f.v_breaks.front(), v0 + 1e-9) << v0;
     EXPECT_GE(f.v_breaks.back(), v1 - 1e-9) << v1;
-    const size_t nv = f.v_breaks.size() - 1;
     double worst = 0.0;
     for (int a = 0; a <= 8; ++a) {
       for (int b = 0; b <= 200; ++b) {
         const double u = a / 8.0, v = v0 + (v1 - v0) * b / 200.0;
-        const auto cell = [](const std::vector<double>& breaks, double x) {
-          size_t k = 0;
-          while (k + 2 < breaks.size() && x > breaks[k + 1]) ++k;
-          return k;
-        };
-        const size_t i = cell(f.u_breaks, u), j = cell(f.v_breaks, v);
-        double s = (u - f.u_breaks[i]) / (f.u_breaks[i + 1] - f.u_breaks[i]);
-        const double t = (v - f.v_breaks[j]) / (f.v_breaks[j + 1] - f.v_breaks[j]);
-        if (f.reversed) s = 1.0 - s;
-        const auto x = de_casteljau<double>(part.model.patches[static_cast<size_t>(f.first_patch) + i * nv + j], s, t);
+        const Vec3 x = test::face_point_uv(part, f, u, v);
         const gp_Pnt y = surface->Value(u, v);
-        worst = std::max(worst, std::hypot(x[0] - y.X(), x[1] - y.Y(), x[2] - y.Z()));
+        worst = std::max(worst, std::hypot(x.x - y.X(), x.y - y.Y(), x.z - y.Z()));
       }
     }
     EXPECT_LT(worst, 1e-9) << "face over [" << v0 << ", " << v1 << "]: a point of the face off its patches by "
