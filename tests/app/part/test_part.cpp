@@ -235,7 +235,7 @@ TEST(AppPart, TrimmedFacesAreCertifiedOrSayWhy) {
   const nlohmann::json json = app::part_certificate_json(part, cert);
   EXPECT_EQ(json["certified"], cert.all_certified);
   // Each face's lower bounds with their witnesses: the mesh -> face witness is a point of the mesh
-  // (on one of the face's triangles), at most the face's upper bound away from the face.
+  // (on one of the face's triangles), and its lower bound positive and at most the face's upper bound.
   int witnesses = 0;
   for (const nlohmann::json& row : json["faces"]) {
     if (!row.contains("mesh_to_surface")) continue;
