@@ -2138,8 +2138,10 @@ void set_end_tolerance(PartBuilder& b, const TopoDS_Edge& edge, const EdgeSample
 // triangles meet along the segment at the pole's samples (every a', b' becomes an edge parameter of
 // the pole, s.t). raw: the corners' (u, v) in the face's own parameters. Without this, a fan corner
 // at one (u, v) of the segment (a mesher's node at the pole) makes the triangle's (u, v) map sweep
-// across the meridians and its bound first-order.
-void tile_pole(const FaceGeometry& g, const TopoDS_Edge& edge, EdgeSamples& s,
+// across the meridians and its bound first-order. Where a' and b' lie within `tolerance` of each
+// other in the loops' metric ((U, V) scaled by cu, cv: face_loops merges such samples of one vertex
+// into one loop point), the collapsed triangle would have no area and is left out.
+void tile_pole(const FaceGeometry& g, const TopoDS_Edge& edge, double tolerance, EdgeSamples& s,
                std::vector<std::array<uint32_t, 3>>& triangles, std::vector<std::array<Vec2, 3>>& raw) {
   double f = 0.0, l = 0.0;
   const Handle(Geom2d_Curve) pc = BRep_Tool::CurveOnSurface(edge, g.face, f, l);
@@ -2168,7 +2170,11 @@ void tile_pole(const FaceGeometry& g, const TopoDS_Edge& edge, EdgeSamples& s,
     const Vec2 qa = A + sa * (B - A), qb = A + sb * (B - A);
     t.push_back(f + sa * (l - f)), t.push_back(f + sb * (l - f));
     raw[k][c] = qa;
-    if (sa != sb) {
+    const auto loop_point = [&](const Vec2& q) {
+      const Vec2 UV = face_to_uv(g, q.x, q.y);
+      return Vec2(UV.x * g.cu, UV.y * g.cv);
+    };
+    if (sa != sb && glm::length(loop_point(qa) - loop_point(qb)) > tolerance) {
       triangles.push_back({pole, triangles[k][bb], pole});
       raw.push_back({qa, raw[k][bb], qb});
     }
@@ -2252,7 +2258,7 @@ bool brepmesh_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, Part
       const size_t e = static_cast<size_t>(b.x.edges.FindIndex(edge) - 1);
       saved.emplace_back(e, b.edges[e]);
       pole_vertices.insert(b.edges[e].vertex.front());
-      tile_pole(g, edge, b.edges[e], tiled, tiled_raw);
+      tile_pole(g, edge, b.vertex_tolerance[b.edges[e].vertex.front()], b.edges[e], tiled, tiled_raw);
     }
     const auto sign = [](const std::array<Vec2, 3>& q) {
       const double area = (q[1].x - q[0].x) * (q[2].y - q[0].y) - (q[2].x - q[0].x) * (q[1].y - q[0].y);
@@ -2525,7 +2531,7 @@ bool take_mesh_face(PartBuilder& b, const MeshOnShape& m, const FaceGeometry& g,
     const int e = b.x.edges.FindIndex(edge) - 1;
     EdgeSamples& s = b.edges[static_cast<size_t>(e)];
     if (BRep_Tool::Degenerated(edge) && s.vertex.size() == 2) {
-      tile_pole(g, edge, s, triangles, raw);
+      tile_pole(g, edge, b.vertex_tolerance[s.vertex.front()], s, triangles, raw);
       continue;
     }
     double first = 0.0, last = 0.0;

@@ -20,6 +20,7 @@
 #include <BRepBuilderAPI_MakeVertex.hxx>
 #include <BRepClass_FaceClassifier.hxx>
 #include <BRepExtrema_DistShapeShape.hxx>
+#include <BRepPrimAPI_MakeSphere.hxx>
 #include <BRepTools.hxx>
 #include <BRep_Tool.hxx>
 #include <Bnd_Box.hxx>
@@ -494,6 +495,59 @@ TEST(PartBruteForceSides, TrimmedFacesAlongTheirSidesFollowTheProjections) {
   EXPECT_GE(faces, 9);
   std::cout << "ec_exhaust-A trimmed B-spline faces (BRepMesh, 1e-2 of the diagonal): " << faces
             << ", worst upper / lower " << worst_ratio << "\n";
+}
+
+// A foreign mesh's fan at a pole with two corners on (nearly) one meridian, as FreeCAD's MeshPart
+// gave on a B-spline revolved from the axis back to it: corners a = (u_k, v_7) and b = (u_k + 8e-9,
+// nearer the pole). The pole's tiling adds the collapsed triangle (a', b, b') between the corners'
+// projections onto the pole's segment; a' and b' lie 8e-9 apart, within the pole's vertex tolerance,
+// so the face's loops merge them into one point and that triangle had no area: the sphere was "not
+// certified: a triangle is degenerate in (U, V)". It is now left out (the loops close the gap), and
+// the face is certified, tightly, with its bounds holding against OCCT.
+TEST(PartBruteForcePoles, FanWithTwoCornersOnOneMeridianIsCertified) {
+  constexpr double kRadius = 10.0, kPi = 3.14159265358979323846;
+  const std::string path = testing::TempDir() + "/sagitta_pole_fan_sphere.brep";
+  ASSERT_TRUE(BRepTools::Write(BRepPrimAPI_MakeSphere(kRadius).Shape(), path.c_str()));
+  // OCCT's sphere: (u, v) -> R (cos v cos u, cos v sin u, sin v), u in [0, 2 pi], v in [-pi/2, pi/2].
+  const auto at = [&](double u, double v) {
+    return Vec3(kRadius * std::cos(v) * std::cos(u), kRadius * std::cos(v) * std::sin(u), kRadius * std::sin(v));
+  };
+  constexpr uint32_t kLongitudes = 16, kRings = 7;
+  Tessellation mesh;
+  const auto ring = [&](uint32_t j, uint32_t i) { return 2 + (j - 1) * kLongitudes + i % kLongitudes; };
+  mesh.positions = {at(0.0, -kPi / 2), at(0.0, kPi / 2)};  // south 0, north 1
+  for (uint32_t j = 1; j <= kRings; ++j) {
+    for (uint32_t i = 0; i < kLongitudes; ++i)
+      mesh.positions.push_back(at(2 * kPi * i / kLongitudes, -kPi / 2 + kPi * j / 8));
+  }
+  constexpr uint32_t k = 3;  // the fan triangle split at a point b by a's meridian
+  const uint32_t b = static_cast<uint32_t>(mesh.positions.size());
+  mesh.positions.push_back(at(2 * kPi * k / kLongitudes + 8e-9, kPi / 2 - kPi / 16));
+  for (uint32_t i = 0; i < kLongitudes; ++i) {
+    mesh.triangles.push_back({0, ring(1, i + 1), ring(1, i)});
+    for (uint32_t j = 1; j < kRings; ++j) {
+      mesh.triangles.push_back({ring(j, i), ring(j, i + 1), ring(j + 1, i + 1)});
+      mesh.triangles.push_back({ring(j, i), ring(j + 1, i + 1), ring(j + 1, i)});
+    }
+    if (i != k) {
+      mesh.triangles.push_back({ring(kRings, i), ring(kRings, i + 1), 1});
+    } else {
+      mesh.triangles.push_back({ring(kRings, i), ring(kRings, i + 1), b});
+      mesh.triangles.push_back({ring(kRings, i + 1), 1, b});
+      mesh.triangles.push_back({1, ring(kRings, i), b});  // the fan triangle (pole, a, b)
+    }
+  }
+  const OcctPart occt_part = read_part(path);
+  const occt::PartMesh part = occt::mesh_on_part_file(path, mesh, "a fan on one meridian");
+  ASSERT_EQ(part.faces.size(), 1u);
+  EXPECT_EQ(part.unassigned_triangles, 0u);
+  const app::PartCertificate cert = app::certify_part(part);
+  ASSERT_TRUE(cert.all_certified) << cert.faces.front().reason;
+  const app::FaceCertificate& f = cert.faces.front();
+  EXPECT_LE(f.hausdorff.upper, 1.1 * f.hausdorff.lower) << "[" << f.hausdorff.lower << ", " << f.hausdorff.upper << "]";
+  EXPECT_EQ(app::validate_part(part).crack_edges, 0u);
+  const BruteForce brute = expect_bounds_hold(occt_part, part, cert, "pole fan sphere");
+  EXPECT_EQ(brute.faces_checked, 1);
 }
 
 // ---- Planted defects on our own mesh of OCC2368 (level 2) ----------------------------------------
