@@ -85,6 +85,42 @@ const char* surface_type_name(const Handle(Geom_Surface)& s) {
   return s->DynamicType()->Name();
 }
 
+}  // namespace
+
+Handle(Geom_Surface) exact_surface(const Handle(Geom_Surface) & surface, double u0, double u1, double v0, double v1) {
+  Handle(Geom_Surface) basis = surface;
+  while (!basis.IsNull() && basis->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))
+    basis = Handle(Geom_RectangularTrimmedSurface)::DownCast(basis)->BasisSurface();
+  if (basis.IsNull() || !basis->IsKind(STANDARD_TYPE(Geom_OffsetSurface))) return surface;
+  const Handle(Geom_OffsetSurface) offset = Handle(Geom_OffsetSurface)::DownCast(basis);
+  Handle(Geom_Surface) equivalent;
+  try {
+    equivalent = offset->Surface();
+  } catch (const Standard_Failure&) {
+    return surface;
+  }
+  if (equivalent.IsNull() || !std::isfinite(u0) || !std::isfinite(u1) || !std::isfinite(v0) || !std::isfinite(v1))
+    return surface;
+  // OCCT builds the equivalent surface with the offset's parametrisation (a cylinder of radius r + d
+  // on the same axis, angle and height); anything else would move the face's p-curves, so it is
+  // checked on a 5 x 5 grid of the face's bounds to 1e-9 of the coordinates and the offset.
+  try {
+    for (int i = 0; i <= 4; ++i) {
+      for (int j = 0; j <= 4; ++j) {
+        const double u = u0 + (u1 - u0) * i / 4.0, v = v0 + (v1 - v0) * j / 4.0;
+        const gp_Pnt a = offset->Value(u, v), b = equivalent->Value(u, v);
+        const double scale = std::abs(a.X()) + std::abs(a.Y()) + std::abs(a.Z()) + std::abs(offset->Offset());
+        if (!(a.Distance(b) <= 1e-9 * scale)) return surface;
+      }
+    }
+  } catch (const Standard_Failure&) {
+    return surface;
+  }
+  return equivalent;
+}
+
+namespace {
+
 // True when the face's domain is the whole rectangle of its UV bounds: one wire whose p-curves all
 // run along that rectangle's border (checked at 9 points per edge, relative tolerance 1e-9).
 bool domain_is_rectangle(const TopoDS_Face& face, double u0, double u1, double v0, double v1) {
@@ -473,17 +509,20 @@ std::vector<BezierPatch> face_patches(const TopoDS_Face& face, const std::string
                                       FaceReport& r, Handle(Geom_BSplineSurface)* converted) {
   std::vector<BezierPatch> patches;
   try {
-    const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);  // location applied
+    Handle(Geom_Surface) surface = BRep_Tool::Surface(face);  // location applied
     if (surface.IsNull()) {
       r.surface_type = "none";
       r.reason = "the face has no surface";
     } else {
+      double u0, u1, v0, v1;
+      BRepTools::UVBounds(face, u0, u1, v0, v1);
+      const Handle(Geom_Surface) given = surface;
+      surface = exact_surface(surface, u0, u1, v0, v1);
       Handle(Geom_Surface) basis = surface;
       while (basis->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))
         basis = Handle(Geom_RectangularTrimmedSurface)::DownCast(basis)->BasisSurface();
       r.surface_type = surface_type_name(basis);
-      double u0, u1, v0, v1;
-      BRepTools::UVBounds(face, u0, u1, v0, v1);
+      if (surface != given) r.surface_type = "OffsetSurface (" + r.surface_type + ")";
       const bool analytic =
           !basis->IsKind(STANDARD_TYPE(Geom_BSplineSurface)) && !basis->IsKind(STANDARD_TYPE(Geom_BezierSurface));
       if (analytic && !options.convert_analytic) {

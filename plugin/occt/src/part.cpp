@@ -359,7 +359,11 @@ FaceGeometry face_geometry(const ShapeIndex& x, int f, const std::string& name, 
   const int k = x.face_solids.FindIndex(g.face);
   if (k > 0 && !x.face_solids(k).IsEmpty()) g.solid = x.solids.FindIndex(x.face_solids(k).First()) - 1;
   if (g.patches.empty()) return g;
-  g.surface = BRep_Tool::Surface(g.face);
+  {
+    double u0 = 0.0, u1 = 0.0, v0 = 0.0, v1 = 0.0;
+    BRepTools::UVBounds(g.face, u0, u1, v0, v1);
+    g.surface = exact_surface(BRep_Tool::Surface(g.face), u0, u1, v0, v1);  // as face_patches converted it
+  }
   {
     Handle(Geom_Surface) basis = g.surface;
     while (basis->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))

@@ -17,19 +17,25 @@
 #include <glm/vec3.hpp>
 
 #include <BRepBndLib.hxx>
+#include <BRepBuilderAPI_Copy.hxx>
 #include <BRepBuilderAPI_MakeVertex.hxx>
 #include <BRepClass_FaceClassifier.hxx>
 #include <BRepExtrema_DistShapeShape.hxx>
+#include <BRepPrimAPI_MakeCylinder.hxx>
 #include <BRepPrimAPI_MakeSphere.hxx>
 #include <BRepTools.hxx>
+#include <BRep_Builder.hxx>
 #include <BRep_Tool.hxx>
 #include <Bnd_Box.hxx>
 #include <Geom2d_Curve.hxx>
 #include <GeomAPI_ProjectPointOnSurf.hxx>
+#include <Geom_CylindricalSurface.hxx>
+#include <Geom_OffsetSurface.hxx>
 #include <Geom_Surface.hxx>
 #include <Precision.hxx>
 #include <TopExp.hxx>
 #include <TopExp_Explorer.hxx>
+#include <TopLoc_Location.hxx>
 #include <TopTools_IndexedMapOfShape.hxx>
 #include <TopoDS.hxx>
 #include <TopoDS_Edge.hxx>
@@ -548,6 +554,73 @@ TEST(PartBruteForcePoles, FanWithTwoCornersOnOneMeridianIsCertified) {
   EXPECT_EQ(app::validate_part(part).crack_edges, 0u);
   const BruteForce brute = expect_bounds_hold(occt_part, part, cert, "pole fan sphere");
   EXPECT_EQ(brute.faces_checked, 1);
+}
+
+// An offset of an elementary surface (a STEP file's OFFSET_SURFACE over a cylinder, as other CAD
+// systems write it): OCCT's Geom_OffsetSurface of a cylinder of radius 3 by 2 is the cylinder of
+// radius 5, with the same (u, v). Such a face was skipped ("offset surface: no exact rational
+// form") and the part had no closed mesh; it is now converted through that cylinder. The same solid
+// with the plain cylinder gives the same certificate, and the bounds hold against OCCT's distances
+// to the offset face itself.
+TEST(PartBruteForceOffsets, OffsetOfACylinderIsTheCylinder) {
+  const TopoDS_Shape plain = BRepPrimAPI_MakeCylinder(5.0, 10.0).Shape();
+  const TopoDS_Shape offset = BRepBuilderAPI_Copy(plain).Shape();
+  int replaced = 0;
+  for (TopExp_Explorer it(offset, TopAbs_FACE); it.More(); it.Next()) {
+    const TopoDS_Face face = TopoDS::Face(it.Current());
+    TopLoc_Location loc;
+    const Handle(Geom_CylindricalSurface) cylinder =
+        Handle(Geom_CylindricalSurface)::DownCast(BRep_Tool::Surface(face, loc));
+    if (cylinder.IsNull()) continue;
+    const Handle(Geom_Surface) surface =
+        new Geom_OffsetSurface(new Geom_CylindricalSurface(cylinder->Position(), 3.0), 2.0);
+    // The edges' p-curves are kept under the new surface (they are keyed by the surface).
+    std::vector<std::pair<TopoDS_Edge, std::array<Handle(Geom2d_Curve), 2>>> curves;
+    const TopoDS_Face forward = TopoDS::Face(face.Oriented(TopAbs_FORWARD));
+    for (TopExp_Explorer e(forward, TopAbs_EDGE); e.More(); e.Next()) {
+      const TopoDS_Edge edge = TopoDS::Edge(e.Current());
+      double f = 0.0, l = 0.0;
+      std::array<Handle(Geom2d_Curve), 2> c{
+          BRep_Tool::CurveOnSurface(TopoDS::Edge(edge.Oriented(TopAbs_FORWARD)), forward, f, l),
+          Handle(Geom2d_Curve)()};
+      if (BRep_Tool::IsClosed(edge, forward))
+        c[1] = BRep_Tool::CurveOnSurface(TopoDS::Edge(edge.Oriented(TopAbs_REVERSED)), forward, f, l);
+      curves.push_back({edge, c});
+    }
+    BRep_Builder builder;
+    builder.UpdateFace(forward, surface, loc, Precision::Confusion());
+    for (const auto& [edge, c] : curves) {
+      if (c[1].IsNull())
+        builder.UpdateEdge(edge, c[0], surface, loc, Precision::Confusion());
+      else
+        builder.UpdateEdge(edge, c[0], c[1], surface, loc, Precision::Confusion());
+    }
+    ++replaced;
+  }
+  ASSERT_EQ(replaced, 1);
+  const std::string plain_path = testing::TempDir() + "/sagitta_plain_cylinder.brep";
+  const std::string offset_path = testing::TempDir() + "/sagitta_offset_cylinder.brep";
+  ASSERT_TRUE(BRepTools::Write(plain, plain_path.c_str()));
+  ASSERT_TRUE(BRepTools::Write(offset, offset_path.c_str()));
+
+  const occt::PartMesh reference = our_mesh(plain_path);
+  const occt::PartMesh part = our_mesh(offset_path);
+  ASSERT_EQ(part.faces.size(), 3u);
+  int offsets = 0;
+  for (const occt::PartFace& f : part.faces) offsets += f.surface_type == "OffsetSurface (Cylinder)" ? 1 : 0;
+  EXPECT_EQ(offsets, 1);
+  EXPECT_EQ(part.mesh.triangles.size(), reference.mesh.triangles.size());
+  const app::PartCertificate cert = app::certify_part(part), expected = app::certify_part(reference);
+  ASSERT_TRUE(cert.all_certified) << cert.faces.front().reason;
+  EXPECT_NEAR(cert.distance.hausdorff.upper, expected.distance.hausdorff.upper,
+              1e-9 * expected.distance.hausdorff.upper);
+  EXPECT_NEAR(cert.distance.hausdorff.lower, expected.distance.hausdorff.lower,
+              1e-9 * expected.distance.hausdorff.upper);
+  const app::PartValidation v = app::validate_part(part);
+  EXPECT_TRUE(v.watertight);
+  EXPECT_EQ(v.crack_edges, 0u);
+  const BruteForce brute = expect_bounds_hold(read_part(offset_path), part, cert, "offset cylinder");
+  EXPECT_EQ(brute.faces_checked, 3);
 }
 
 // ---- Planted defects on our own mesh of OCC2368 (level 2) ----------------------------------------
