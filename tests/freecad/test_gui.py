@@ -156,8 +156,11 @@ def check_defects(watcher):
     import Part
     doc = FreeCAD.newDocument("Defects")
     ctx = {"doc": doc, "face": bezier_source(doc), "disk": doc.addObject("Part::Feature", "Disk")}
-    # A face on an offset surface (no exact rational form): Validate refuses it.
-    ctx["disk"].Shape = Part.OffsetSurface(Part.Cylinder(), 1.0).toShape(0.0, 3.0, 0.0, 2.0)
+    # A face on an offset of a B-spline surface (no exact rational form): Validate refuses it. (An
+    # offset of a cylinder is a cylinder, and is measured.)
+    basis = Part.BSplineSurface()
+    basis.interpolate([[FreeCAD.Vector(i, j, 0.3 * (i - 1) * (j - 1)) for j in range(3)] for i in range(3)])
+    ctx["disk"].Shape = Part.OffsetSurface(basis, 0.5).toShape()
     doc.recompute()
     for step in (creation_panel_cancel_and_ok, refused_panel_edit, refused_property_edit, fit_target_zero,
                  refused_validate, malformed_import, colours_after_reopen):

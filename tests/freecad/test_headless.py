@@ -581,11 +581,14 @@ class HeadlessTest(unittest.TestCase):
                          "uniform scheme: give exactly one of Level or Segments")
 
     def test_refused_validate_adds_no_mesh(self):
-        """Validate of a Part object Sagitta cannot measure (a face on an offset surface: no exact
+        """Validate of a Part object Sagitta cannot measure (a face on an offset of a B-spline: no exact
         rational form) is refused and leaves no FreeCADMesh object behind. A disk (one trimmed face)
         is measured face by face and certified."""
         offset = self.doc.addObject("Part::Feature", "Offset")
-        offset.Shape = Part.OffsetSurface(Part.Cylinder(), 1.0).toShape(0.0, 3.0, 0.0, 2.0)
+        # (an offset of a cylinder is a cylinder, and is measured: the basis here is a B-spline)
+        basis = Part.BSplineSurface()
+        basis.interpolate([[FreeCAD.Vector(i, j, 0.3 * (i - 1) * (j - 1)) for j in range(3)] for i in range(3)])
+        offset.Shape = Part.OffsetSurface(basis, 0.5).toShape()
         self.doc.recompute()
         names, undo_count = sorted(o.Name for o in self.doc.Objects), self.doc.UndoCount
         with self.assertRaises(SagittaCore.SagittaError) as refused:

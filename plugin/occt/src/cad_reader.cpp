@@ -7,15 +7,20 @@
 
 #include <glm/geometric.hpp>
 
+#include <BRepBndLib.hxx>
+#include <BRepBuilderAPI_Sewing.hxx>
+#include <BRepClass3d_SolidClassifier.hxx>
 #include <BRepTools.hxx>
 #include <BRep_Builder.hxx>
 #include <BRep_Tool.hxx>
+#include <Bnd_Box.hxx>
+#include <Geom2d_Curve.hxx>
 #include <GeomConvert.hxx>
 #include <GeomConvert_BSplineSurfaceToBezierSurface.hxx>
-#include <Geom2d_Curve.hxx>
 #include <Geom_BSplineSurface.hxx>
 #include <Geom_BezierSurface.hxx>
 #include <Geom_ConicalSurface.hxx>
+#include <Geom_Curve.hxx>
 #include <Geom_CylindricalSurface.hxx>
 #include <Geom_OffsetSurface.hxx>
 #include <Geom_Plane.hxx>
@@ -28,9 +33,10 @@
 #include <IGESControl_Reader.hxx>
 #include <Message.hxx>
 #include <Message_Messenger.hxx>
+#include <Precision.hxx>
 #include <STEPControl_Reader.hxx>
-#include <Standard_Version.hxx>
 #include <Standard_Failure.hxx>
+#include <Standard_Version.hxx>
 #include <TColGeom_Array2OfBezierSurface.hxx>
 #include <TColStd_Array1OfReal.hxx>
 #include <TColStd_Array2OfReal.hxx>
@@ -41,14 +47,19 @@
 #include <TopoDS.hxx>
 #include <TopoDS_Edge.hxx>
 #include <TopoDS_Face.hxx>
+#include <TopoDS_Shell.hxx>
+#include <TopoDS_Solid.hxx>
+#include <TopoDS_Vertex.hxx>
 #include <TopoDS_Wire.hxx>
 
 #include <algorithm>
 #include <cctype>
-#include <string>
 #include <cmath>
 #include <filesystem>
+#include <limits>
+#include <map>
 #include <sstream>
+#include <string>
 #include <unordered_map>
 
 namespace sagitta::occt {
@@ -182,6 +193,47 @@ bool extend_patch(BezierPatch& p, int axis, double lo, double hi) {
     }
   }
   return true;
+}
+
+// How far, in 3D, the face's boundary reaches past its surface's parameter bounds in a non-periodic
+// direction: the largest distance between S(p) and S(p clamped to the bounds) over 33 points of each
+// edge's p-curve (0 when every p-curve stays inside, +infinity when OCCT fails there). The patches
+// stop at the bounds and the face's (U, V) are clamped onto them; past the B-rep's own tolerance the
+// face lies partly on OCCT's extrapolation of the surface (an IGES round trip of a revolved periodic
+// B-spline gave a profile over [0, 18.7] and a face down to -1.75, 4.2 away), which its patches miss.
+double reach_past_bounds(const TopoDS_Face& face, const Handle(Geom_Surface) & basis) {
+  double a, b, c, d;
+  basis->Bounds(a, b, c, d);
+  if (basis->IsUPeriodic()) a = -std::numeric_limits<double>::infinity(), b = std::numeric_limits<double>::infinity();
+  if (basis->IsVPeriodic()) c = -std::numeric_limits<double>::infinity(), d = std::numeric_limits<double>::infinity();
+  double worst = 0.0;
+  try {
+    for (TopExp_Explorer it(face, TopAbs_EDGE); it.More(); it.Next()) {
+      double f = 0.0, l = 0.0;
+      const Handle(Geom2d_Curve) pcurve = BRep_Tool::CurveOnSurface(TopoDS::Edge(it.Current()), face, f, l);
+      if (pcurve.IsNull()) continue;
+      for (int k = 0; k <= 32; ++k) {
+        const gp_Pnt2d p = pcurve->Value(f + (l - f) * k / 32.0);
+        const double u = std::clamp(p.X(), a, b), v = std::clamp(p.Y(), c, d);
+        if (u == p.X() && v == p.Y()) continue;
+        const double gap = basis->Value(p.X(), p.Y()).Distance(basis->Value(u, v));
+        worst = std::max(worst, std::isfinite(gap) ? gap : std::numeric_limits<double>::infinity());
+      }
+    }
+  } catch (const Standard_Failure&) {
+    return std::numeric_limits<double>::infinity();
+  }
+  return worst;
+}
+
+// The largest tolerance of the face, its edges and its vertices.
+double face_tolerance(const TopoDS_Face& face) {
+  double t = BRep_Tool::Tolerance(face);
+  for (TopExp_Explorer e(face, TopAbs_EDGE); e.More(); e.Next())
+    t = std::max(t, BRep_Tool::Tolerance(TopoDS::Edge(e.Current())));
+  for (TopExp_Explorer e(face, TopAbs_VERTEX); e.More(); e.Next())
+    t = std::max(t, BRep_Tool::Tolerance(TopoDS::Vertex(e.Current())));
+  return t;
 }
 
 // The face's surface over [u0, u1] x [v0, v1] as Bézier patches (exact), or a reason why not.
@@ -452,6 +504,101 @@ void silence_occt_messages() {
 
 std::string occt_version() { return OCC_VERSION_COMPLETE; }
 
+namespace {
+
+// The largest distance, at 17 points of each edge, between the edge's 3D curve and the face's surface
+// along the edge's p-curve (+infinity when either curve is missing).
+double edges_off_face(const TopoDS_Face& face) {
+  const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);
+  if (surface.IsNull()) return std::numeric_limits<double>::infinity();
+  double worst = 0.0;
+  for (TopExp_Explorer it(face, TopAbs_EDGE); it.More(); it.Next()) {
+    const TopoDS_Edge edge = TopoDS::Edge(it.Current());
+    if (BRep_Tool::Degenerated(edge)) continue;
+    double f = 0.0, l = 0.0, pf = 0.0, pl = 0.0;
+    const Handle(Geom_Curve) curve = BRep_Tool::Curve(edge, f, l);  // location applied
+    const Handle(Geom2d_Curve) pcurve = BRep_Tool::CurveOnSurface(edge, face, pf, pl);
+    if (curve.IsNull() || pcurve.IsNull()) return std::numeric_limits<double>::infinity();
+    for (int k = 0; k <= 16; ++k) {
+      const gp_Pnt2d uv = pcurve->Value(pf + (pl - pf) * k / 16.0);
+      const double d = curve->Value(f + (l - f) * k / 16.0).Distance(surface->Value(uv.X(), uv.Y()));
+      worst = std::max(worst, std::isfinite(d) ? d : std::numeric_limits<double>::infinity());
+    }
+  }
+  return worst;
+}
+
+}  // namespace
+
+TopoDS_Shape sew_free_faces(const TopoDS_Shape& shape) {
+  if (TopExp_Explorer(shape, TopAbs_SHELL).More()) return shape;
+  TopTools_IndexedMapOfShape faces;
+  TopExp::MapShapes(shape, TopAbs_FACE, faces);
+  if (faces.Extent() < 1) return shape;
+  try {
+    Bnd_Box box;
+    BRepBndLib::Add(shape, box);
+    if (box.IsVoid()) return shape;
+    const double tolerance = 1e-6 * std::sqrt(box.SquareExtent());
+    if (!(tolerance > 0.0) || !std::isfinite(tolerance)) return shape;
+    BRepBuilderAPI_Sewing sewing(tolerance);
+    std::vector<bool> sewn(static_cast<size_t>(faces.Extent()) + 1, false);
+    int added = 0;
+    for (int f = 1; f <= faces.Extent(); ++f) {
+      if (edges_off_face(TopoDS::Face(faces(f))) <= tolerance) sewing.Add(faces(f)), sewn[f] = true, ++added;
+    }
+    if (added < 1) return shape;
+    sewing.Perform();
+    const TopoDS_Shape result = sewing.SewedShape();
+    // Each sewn face as the result holds it (its orientation in its shell), found by its TShape.
+    const auto oriented = [&](const TopoDS_Shape& face) -> TopoDS_Shape {
+      for (TopExp_Explorer it(result, TopAbs_FACE); it.More(); it.Next()) {
+        if (it.Current().IsSame(face)) return it.Current();
+      }
+      return TopoDS_Shape();
+    };
+    BRep_Builder builder;
+    TopoDS_Shell shell;
+    builder.MakeShell(shell);
+    for (int f = 1; f <= faces.Extent(); ++f) {
+      TopoDS_Shape face = faces(f);
+      if (sewn[f]) {
+        const TopoDS_Shape modified = sewing.IsModified(face) ? sewing.Modified(face) : face;
+        face = oriented(modified);
+        if (face.IsNull() || face.ShapeType() != TopAbs_FACE) return shape;
+      }
+      builder.Add(shell, face);
+    }
+    // Every face sewn into one closed, manifold shell (each edge used twice: touching boxes' IGES
+    // sews into edges of four faces): a solid, turned outward (a point far outside is OUT).
+    std::map<const TopoDS_TShape*, int> uses;
+    for (TopExp_Explorer it(shell, TopAbs_EDGE); it.More(); it.Next()) {
+      if (!BRep_Tool::Degenerated(TopoDS::Edge(it.Current()))) ++uses[it.Current().TShape().get()];
+    }
+    const bool manifold = std::all_of(uses.begin(), uses.end(), [](const auto& u) { return u.second == 2; });
+    if (added == faces.Extent() && manifold && BRep_Tool::IsClosed(shell)) {
+      int shells = 0;  // connected pieces (sewing one face returns the face)
+      for (TopExp_Explorer it(result, TopAbs_SHELL); it.More(); it.Next()) ++shells;
+      if (shells == 1 || (shells == 0 && added == 1)) {
+        shell.Closed(true);
+        TopoDS_Solid solid;
+        builder.MakeSolid(solid);
+        builder.Add(solid, shell);
+        BRepClass3d_SolidClassifier classifier(solid);
+        classifier.PerformInfinitePoint(Precision::Confusion());
+        if (classifier.State() == TopAbs_IN) {
+          builder.MakeSolid(solid);
+          builder.Add(solid, shell.Reversed());
+        }
+        return solid;
+      }
+    }
+    return shell;
+  } catch (const Standard_Failure&) {
+    return shape;
+  }
+}
+
 bool is_whole_part(const CadModel& cad) { return cad.solids > 0 || cad.shells > 0 || cad.faces_trimmed > 0; }
 
 bool is_cad_file(const std::string& path) {
@@ -476,7 +623,8 @@ TopoDS_Shape read_cad_shape(const std::string& path) {
       IGESControl_Reader reader;
       if (reader.ReadFile(path.c_str()) != IFSelect_RetDone) throw InputError(path + ": not a readable IGES file");
       if (reader.TransferRoots() == 0) throw InputError(path + ": the IGES file holds no transferable shape");
-      shape = reader.OneShape();
+      // IGES files often hold free faces (trimmed surfaces, no shell): sewn where their edges meet.
+      shape = sew_free_faces(reader.OneShape());
     } else if (ext == ".brep" || ext == ".brp") {
       BRep_Builder builder;
       if (!BRepTools::Read(shape, path.c_str(), builder)) throw InputError(path + ": not a readable OCCT BREP file");
@@ -525,8 +673,14 @@ std::vector<BezierPatch> face_patches(const TopoDS_Face& face, const std::string
       if (surface != given) r.surface_type = "OffsetSurface (" + r.surface_type + ")";
       const bool analytic =
           !basis->IsKind(STANDARD_TYPE(Geom_BSplineSurface)) && !basis->IsKind(STANDARD_TYPE(Geom_BezierSurface));
+      const double reach = analytic && !options.convert_analytic ? 0.0 : reach_past_bounds(face, basis);
       if (analytic && !options.convert_analytic) {
         r.reason = "analytic surface and convert_analytic is off";
+      } else if (!(reach <= 10.0 * face_tolerance(face))) {
+        std::ostringstream why;
+        why << "the face reaches " << reach << " past its surface's parameter bounds (10x its tolerance "
+            << face_tolerance(face) << "): it lies partly on an extrapolation of the surface";
+        r.reason = why.str();
       } else {
         patches = decompose(surface, u0, u1, v0, v1, r.reason, r.u_breaks, r.v_breaks, converted);
         for (size_t i = 0; i < patches.size() && r.reason.empty(); ++i) {

@@ -14,6 +14,13 @@ namespace sagitta::occt {
 
 // The shape in a STEP / IGES / BREP file; throws InputError naming the file when it cannot be read.
 TopoDS_Shape read_cad_shape(const std::string& path);
+// A shape of free faces (no shell; IGES files often are) with its faces sewn where they meet, or the
+// shape itself. Faces whose edges' 3D curves lie within 1e-6 of the shape's diagonal of the face are
+// sewn at that tolerance (a face whose edges lie further off stays free: sewing would move its
+// boundary onto curves off it). The result is one shell holding every face in the shape's face order
+// (the faces' names stay), or a solid, oriented outward, when every face was sewn into one closed
+// shell.
+TopoDS_Shape sew_free_faces(const TopoDS_Shape& shape);
 // The shape in a BREP text.
 TopoDS_Shape read_brep_shape(const std::string& text, const std::string& name);
 // The surface itself, or, for an offset (OCCT's Geom_OffsetSurface, possibly rectangular-trimmed) of

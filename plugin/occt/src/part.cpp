@@ -1787,6 +1787,17 @@ bool segments_cross(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) 
   return true;
 }
 
+// True when c and d both lie on the line through a and b (orientation tests in double). Such chords
+// are not split: where they overlap, the loops run along themselves (a face whose p-curves leave its
+// surface's range, clamped onto one line) and halving them never separates them (an IGES face did
+// so for ever); the CDT's exact predicates decide.
+bool collinear(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) {
+  const auto orient = [](const Vec2& p, const Vec2& q, const Vec2& r) {
+    return (q.x - p.x) * (r.y - p.y) - (q.y - p.y) * (r.x - p.x);
+  };
+  return orient(a, b, c) == 0.0 && orient(a, b, d) == 0.0;
+}
+
 // Loop chords of different edges (or far apart on one edge) that cross in some face's (U, V): the
 // longer of each crossing pair gets its middle added to its edge's samples (`extra`). Returns
 // whether any was found. Cheap (loops only), so the part is meshed once the loops are clean.
@@ -1819,7 +1830,7 @@ bool split_crossing_chords(PartBuilder& b, std::vector<std::vector<double>>& ext
           for (uint32_t other : grid[size_t(j) * cells + i]) {
             if (!tested.insert({other, k}).second) continue;
             const Vec2 p = loop[segments[other][0]].q, q = loop[segments[other][1]].q;
-            if (!segments_cross(a, c, p, q)) continue;
+            if (!segments_cross(a, c, p, q) || collinear(a, c, p, q)) continue;
             const uint32_t longer = glm::length(c - a) >= glm::length(q - p) ? k : other;
             split[segment_edge[longer]].insert(0.5 * (loop[segments[longer][0]].t + loop[segments[longer][1]].t));
           }

@@ -10,31 +10,41 @@
 #include "part_points.hpp"
 #include "sagitta/occt/part.hpp"
 #include "sagitta/solid_check.hpp"
+#include "test_support.hpp"
 
 #include <BRepBndLib.hxx>
 #include <BRepBuilderAPI_MakeEdge.hxx>
 #include <BRepBuilderAPI_MakeFace.hxx>
 #include <BRepBuilderAPI_MakePolygon.hxx>
 #include <BRepBuilderAPI_MakeWire.hxx>
+#include <BRepFilletAPI_MakeFillet.hxx>
+#include <BRepGProp.hxx>
 #include <BRepLib.hxx>
 #include <BRepMesh_IncrementalMesh.hxx>
 #include <BRepOffsetAPI_MakePipeShell.hxx>
+#include <BRepPrimAPI_MakeBox.hxx>
 #include <BRepTools.hxx>
 #include <BRep_Tool.hxx>
 #include <Bnd_Box.hxx>
+#include <GProp_GProps.hxx>
 #include <Geom2dAPI_Interpolate.hxx>
 #include <Geom2d_BSplineCurve.hxx>
 #include <Geom2d_Line.hxx>
 #include <Geom2d_TrimmedCurve.hxx>
 #include <GeomConvert.hxx>
+#include <Geom_BSplineCurve.hxx>
 #include <Geom_BSplineSurface.hxx>
 #include <Geom_CylindricalSurface.hxx>
 #include <Geom_RectangularTrimmedSurface.hxx>
 #include <Geom_SphericalSurface.hxx>
+#include <Geom_SurfaceOfRevolution.hxx>
 #include <Geom_ToroidalSurface.hxx>
+#include <IGESControl_Reader.hxx>
+#include <IGESControl_Writer.hxx>
 #include <Poly_Triangulation.hxx>
 #include <TColStd_Array1OfInteger.hxx>
 #include <TColStd_Array1OfReal.hxx>
+#include <TColgp_Array1OfPnt.hxx>
 #include <TColgp_Array2OfPnt.hxx>
 #include <TColgp_HArray1OfPnt2d.hxx>
 #include <TopExp.hxx>
@@ -43,6 +53,7 @@
 #include <TopTools_IndexedMapOfShape.hxx>
 #include <TopoDS.hxx>
 #include <TopoDS_Face.hxx>
+#include <gp_Ax1.hxx>
 #include <gp_Ax3.hxx>
 #include <gp_Circ.hxx>
 #include <gp_Pln.hxx>
@@ -336,6 +347,117 @@ TEST(Part, PeriodicBSplineFacesAreCoveredByTheirPatches) {
     }
     EXPECT_LT(worst, 1e-9) << "face over [" << v0 << ", " << v1 << "]: a point of the face off its patches by "
                            << worst;
+  }
+}
+
+// IGES files often hold free faces (no shell): UKI60998.igs is 11 of them, and FreeCAD's IGES
+// export of a solid writes its faces so. Meshed face by face, such a part had 150 model-boundary
+// edges and 3 T-junctions where its faces meet. The reader now sews faces whose edges lie on them
+// (to 1e-6 of the part) into one shell, a solid when it closes, keeping the file's face order (the
+// faces' names) and their surfaces.
+TEST(Part, IgesFreeFacesAreSewnInTheirOrder) {
+  const std::string path = kData + "/cad/step/UKI60998.igs";
+  SAGITTA_REQUIRE_DATA(path);
+  IGESControl_Reader reader;
+  ASSERT_EQ(reader.ReadFile(path.c_str()), IFSelect_RetDone);
+  ASSERT_GT(reader.TransferRoots(), 0);
+  const TopoDS_Shape free_faces = reader.OneShape();
+  ASSERT_FALSE(TopExp_Explorer(free_faces, TopAbs_SHELL).More()) << "the file is expected to hold free faces";
+  const TopoDS_Shape sewn = read_cad_shape(path);
+  TopTools_IndexedMapOfShape before, after, solids;
+  TopExp::MapShapes(free_faces, TopAbs_FACE, before);
+  TopExp::MapShapes(sewn, TopAbs_FACE, after);
+  TopExp::MapShapes(sewn, TopAbs_SOLID, solids);
+  ASSERT_EQ(before.Extent(), after.Extent());
+  ASSERT_EQ(solids.Extent(), 1);
+  // Face f of the file is face f of the sewn shape: the same surface over the same (u, v) box.
+  for (int f = 1; f <= before.Extent(); ++f) {
+    const TopoDS_Face a = TopoDS::Face(before(f)), b = TopoDS::Face(after(f));
+    double a0, a1, a2, a3, b0, b1, b2, b3;
+    BRepTools::UVBounds(a, a0, a1, a2, a3);
+    BRepTools::UVBounds(b, b0, b1, b2, b3);
+    EXPECT_NEAR(a0, b0, 1e-6) << "Face " << f;
+    EXPECT_NEAR(a3, b3, 1e-6) << "Face " << f;
+    const Handle(Geom_Surface) sa = BRep_Tool::Surface(a), sb = BRep_Tool::Surface(b);
+    EXPECT_STREQ(sa->DynamicType()->Name(), sb->DynamicType()->Name()) << "Face " << f;
+    for (const double t : {0.25, 0.5, 0.75}) {
+      const double u = a0 + t * (a1 - a0), v = a2 + (1.0 - t) * (a3 - a2);
+      EXPECT_LT(sa->Value(u, v).Distance(sb->Value(u, v)), 1e-9) << "Face " << f;
+    }
+  }
+  const PartMesh part = mesh(path, 2);
+  ASSERT_EQ(part.solids.size(), 1u);
+  EXPECT_TRUE(part.solids[0].closed);
+  EXPECT_TRUE(part.solids[0].valid);
+  EXPECT_EQ(part.faces_skipped, 0);
+  EXPECT_TRUE(part.boundary_edges.empty());
+  const std::vector<SolidCheck> checks = check_solids(part.mesh, part.triangle_solid, part.boundary_edges, {});
+  ASSERT_EQ(checks.size(), 1u);
+  EXPECT_TRUE(checks[0].closed);
+  EXPECT_EQ(checks[0].t_junctions, 0u);
+  EXPECT_GT(checks[0].signed_volume, 0.0) << "the solid is turned outward";
+  EXPECT_NEAR(checks[0].signed_volume, part.solids[0].volume, 0.01 * part.solids[0].volume);
+}
+
+// A filleted box written as IGES faces (IGESControl_Writer's face mode, as FreeCAD exports) comes
+// back as one closed solid with the original's volume, and its mesh is closed like the BREP's.
+TEST(Part, IgesExportOfASolidComesBackClosed) {
+  const TopoDS_Shape box = BRepPrimAPI_MakeBox(40.0, 30.0, 20.0).Shape();
+  BRepFilletAPI_MakeFillet fillet(box);
+  TopTools_IndexedMapOfShape edges;
+  TopExp::MapShapes(box, TopAbs_EDGE, edges);
+  for (int e = 1; e <= 4; ++e) fillet.Add(3.0, TopoDS::Edge(edges(e)));
+  fillet.Build();
+  ASSERT_TRUE(fillet.IsDone());
+  const TopoDS_Shape solid = fillet.Shape();
+  const std::string path = testing::TempDir() + "/sagitta_filleted_box.igs";
+  IGESControl_Writer writer("MM", 0);
+  ASSERT_TRUE(writer.AddShape(solid));
+  writer.ComputeModel();
+  ASSERT_TRUE(writer.Write(path.c_str()));
+  const PartMesh part = mesh(path, 2);
+  ASSERT_EQ(part.solids.size(), 1u);
+  EXPECT_TRUE(part.solids[0].closed);
+  GProp_GProps props;
+  BRepGProp::VolumeProperties(solid, props);
+  EXPECT_NEAR(part.solids[0].volume, props.Mass(), 1e-6 * props.Mass());
+  EXPECT_EQ(part.faces_skipped, 0);
+  EXPECT_TRUE(part.boundary_edges.empty());
+  const std::vector<SolidCheck> checks = check_solids(part.mesh, part.triangle_solid, part.boundary_edges, {});
+  ASSERT_EQ(checks.size(), 1u);
+  EXPECT_TRUE(checks[0].closed);
+  EXPECT_EQ(checks[0].open_edges, 0u);
+  EXPECT_GT(checks[0].signed_volume, 0.0);
+}
+
+// A face that reaches past its surface's parameter bounds lies partly on OCCT's extrapolation of the
+// surface (an IGES round trip of a revolved periodic B-spline gave a profile over [0, 18.7] and a
+// face down to -1.75). Its patches stopped at the bounds, face_to_uv clamped its loops onto them
+// (two edges ran along one line, and the crossing-chord split halved them for ever), and the mesh
+// points there were measured against a surface without that part (a "lower bound" of 4.25 where the
+// mesh lay on the face). Such a face is refused with the reason; one within the bounds is meshed.
+TEST(Part, FaceBeyondItsSurfaceBoundsIsRefused) {
+  TColgp_Array1OfPnt profile(1, 4);
+  for (int k = 1; k <= 4; ++k) profile(k) = gp_Pnt(10.0 + 2.0 * (k % 2), 0.0, 5.0 * (k - 1));
+  TColStd_Array1OfReal knots(1, 2);
+  TColStd_Array1OfInteger mults(1, 2);
+  knots(1) = 0.0, knots(2) = 1.0, mults(1) = mults(2) = 4;
+  const Handle(Geom_Surface) surface = new Geom_SurfaceOfRevolution(new Geom_BSplineCurve(profile, knots, mults, 3),
+                                                                    gp_Ax1(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1)));
+  for (const double v0 : {0.0, -0.1}) {
+    const TopoDS_Face face = BRepBuilderAPI_MakeFace(surface, 0.0, 2.0, v0, 1.0, 1e-7).Face();
+    std::ostringstream text;
+    BRepTools::Write(face, text);
+    PartOptions options;
+    options.scheme.level = 2;
+    const PartMesh part = mesh_part_brep_string(text.str(), "revolved spline", options);
+    ASSERT_EQ(part.faces.size(), 1u);
+    if (v0 == 0.0) {
+      EXPECT_EQ(part.faces[0].status, "tessellated") << part.faces[0].reason;
+    } else {
+      EXPECT_EQ(part.faces[0].status, "skipped");
+      EXPECT_NE(part.faces[0].reason.find("extrapolation"), std::string::npos) << part.faces[0].reason;
+    }
   }
 }
 
