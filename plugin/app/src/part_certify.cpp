@@ -1681,6 +1681,16 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   }
   fc.mesh_to_surface = d.mesh_to_surface;
   fc.surface_to_mesh = d.surface_to_mesh;
+  if (!tiling.empty()) {
+    // The face -> mesh witnesses are points of the triangles' (U, V) footprints, which are points of
+    // the face only where the triangles tile its domain: a folded footprint may lie in a hole (a
+    // "lower bound" of 10.3 where the mesh is within 1.37 of the face). Only the points on the
+    // trimming curves (below) remain. The mesh -> face bound is a distance to the face's whole
+    // patches and stays.
+    fc.surface_to_mesh.lower = 0.0;
+    fc.surface_to_mesh.witness = Vec3(0.0);
+    fc.surface_to_mesh.witness_patch = -1;
+  }
   fc.triangles_mesh_to_surface = d.mesh_to_surface.upper;
   raise_lower_on_curves(f, pieces.mesh, fc.surface_to_mesh);
   if (tiling.empty())

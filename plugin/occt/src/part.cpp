@@ -2066,6 +2066,26 @@ bool take_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, const std::v
   pf.chord_metric = Vec2(g.su, g.sv);
   std::unordered_map<uint32_t, std::vector<Vec2>> loop_uv;
   for (const LoopPoint& p : loop) loop_uv[p.vertex].push_back(Vec2(p.q.x / g.cu, p.q.y / g.cv));
+  // Seam vertices: copies at least a quarter of the loops' extent apart (a seam's two sides; not a
+  // corner's copies from two p-curves, nor a pole's, whose copies run along its segment).
+  std::set<uint32_t> seams;
+  {
+    Vec2 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (const LoopPoint& p : loop) lo = glm::min(lo, p.q), hi = glm::max(hi, p.q);
+    const double extent = glm::length(hi - lo);
+    std::set<uint32_t> poles;
+    for (TopExp_Explorer it(g.face, TopAbs_EDGE); it.More(); it.Next()) {
+      const int e = b.x.edges.FindIndex(it.Current()) - 1;
+      if (e >= 0 && BRep_Tool::Degenerated(TopoDS::Edge(it.Current())) && !b.edges[e].vertex.empty())
+        poles.insert(b.edges[e].vertex.front());
+    }
+    for (const auto& [v, copies] : loop_uv) {
+      if (copies.size() < 2 || poles.count(v)) continue;
+      double spread = 0.0;
+      for (const Vec2& q : copies) spread = std::max(spread, glm::length((q - copies.front()) * Vec2(g.cu, g.cv)));
+      if (spread > 0.25 * extent) seams.insert(v);
+    }
+  }
   const auto period_steps = [&](const Vec2& d) {
     return std::make_pair(g.u_period > 0.0 ? std::round(d.x / g.u_period) : 0.0, g.v_period > 0.0 ? std::round(d.y / g.v_period) : 0.0);
   };
@@ -2119,7 +2139,11 @@ bool take_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, const std::v
       const auto on_loop = loop_uv.find(tris[t][c]);
       if (on_loop != loop_uv.end()) {
         double best = std::numeric_limits<double>::infinity();
-        const Vec2 own = w;
+        // A seam vertex of a foreign mesh (its (u, v) projected, so on either side of the seam)
+        // takes the copy on the triangle's side, nearest the reference corner: on a surface closed
+        // but not periodic (an extrusion of a closed B-spline) no period brings it across.
+        const bool seam_copy = unwrap && rank >= 1 && c != reference && seams.count(tris[t][c]);
+        const Vec2 own = seam_copy ? ref : w;
         for (const Vec2& q : on_loop->second) {
           const double d = glm::length((q - own) * Vec2(g.su, g.sv));
           if (d < best) best = d, w = q;
@@ -2495,11 +2519,30 @@ void faces_from_vertices(PartBuilder& b, MeshOnShape& m, double part_size) {
   }
 }
 
-// The faces' triangles: the face shared by all three corners (the nearest surface to the triangle's
-// centroid when several are).
+// The faces' triangles: the face shared by all three corners. When several are: first a face whose
+// domain holds the projection of the triangle's centroid, then one whose outward normal there agrees
+// with the triangle's winding, then the nearest surface. Coincident faces of two solids (tr10's pins
+// in their holes: the same cylinder, normals opposite) are equally near and both hold every corner;
+// the first took both meshes, which then overlapped in (U, V).
 void triangles_to_faces(const PartBuilder& b, MeshOnShape& m, const std::vector<Triangle>& triangles) {
   m.face_triangles.assign(static_cast<size_t>(b.x.faces.Extent()), {});
   GeomAPI_ProjectPointOnSurf projector;
+  std::map<int, std::unique_ptr<BRepTopAdaptor_FClass2d>> classifiers;
+  // Whether the surface point at (u, v) lies inside face f (whole periods tried in periodic directions).
+  const auto inside = [&](int f, double u, double v) {
+    const FaceGeometry& g = b.geometry[static_cast<size_t>(f)];
+    double u0, u1, v0, v1;
+    BRepTools::UVBounds(g.face, u0, u1, v0, v1);
+    auto& classifier = classifiers[f];
+    if (!classifier) classifier = std::make_unique<BRepTopAdaptor_FClass2d>(g.face, 1e-9 * std::max(u1 - u0, v1 - v0));
+    for (const int i : {0, -1, 1}) {
+      for (const int j : {0, -1, 1}) {
+        if ((i != 0 && !(g.u_period > 0.0)) || (j != 0 && !(g.v_period > 0.0))) continue;
+        if (classifier->Perform(gp_Pnt2d(u + i * g.u_period, v + j * g.v_period)) == TopAbs_IN) return true;
+      }
+    }
+    return false;
+  };
   for (const Triangle& t : triangles) {
     std::vector<int> common;
     for (const VertexOnFace& a : m.on_faces[t[0]]) {
@@ -2515,11 +2558,23 @@ void triangles_to_faces(const PartBuilder& b, MeshOnShape& m, const std::vector<
     int best = common.front();
     if (common.size() > 1) {
       const Vec3 c = (m.position[t[0]] + m.position[t[1]] + m.position[t[2]]) / 3.0;
-      double nearest = std::numeric_limits<double>::infinity();
+      const Vec3 winding = glm::cross(m.position[t[1]] - m.position[t[0]], m.position[t[2]] - m.position[t[0]]);
+      // (outside the domain, normal against the winding, distance): the smallest wins.
+      std::tuple<bool, bool, double> nearest{true, true, std::numeric_limits<double>::infinity()};
       for (const int f : common) {
-        projector.Init(gp_Pnt(c.x, c.y, c.z), BRep_Tool::Surface(b.geometry[static_cast<size_t>(f)].face));
-        const double d = projector.NbPoints() > 0 ? projector.LowerDistance() : std::numeric_limits<double>::infinity();
-        if (d < nearest) nearest = d, best = f;
+        const TopoDS_Face& face = b.geometry[static_cast<size_t>(f)].face;
+        const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);
+        projector.Init(gp_Pnt(c.x, c.y, c.z), surface);
+        if (projector.NbPoints() == 0) continue;
+        double u = 0.0, v = 0.0;
+        projector.LowerDistanceParameters(u, v);
+        gp_Pnt p;
+        gp_Vec du, dv;
+        surface->D1(u, v, p, du, dv);
+        const gp_Vec n = du.Crossed(dv) * (face.Orientation() == TopAbs_REVERSED ? -1.0 : 1.0);
+        const bool against = !(n.X() * winding.x + n.Y() * winding.y + n.Z() * winding.z > 0.0);
+        const std::tuple<bool, bool, double> key{!inside(f, u, v), against, projector.LowerDistance()};
+        if (key < nearest) nearest = key, best = f;
       }
     }
     m.face_triangles[static_cast<size_t>(best)].push_back(t);

@@ -556,6 +556,37 @@ TEST(PartBruteForcePoles, FanWithTwoCornersOnOneMeridianIsCertified) {
   EXPECT_EQ(brute.faces_checked, 1);
 }
 
+// A foreign mesh's vertex on a seam of a surface closed but not periodic (UKI60998's extrusions of
+// closed B-spline curves) gets its (u, v) by projection, on either side of the seam, and no period
+// brings it across: BRepMesh's triangles read back as an STL certified 9 of 11 faces ("the
+// triangles fold over in (U, V)"). Such a vertex now takes the seam copy on its triangle's side.
+TEST(PartBruteForceSeams, StlOfClosedExtrusionsIsCertifiedOnEveryFace) {
+  const std::string path = shared_data("cad/step/UKI60998.igs");
+  SAGITTA_REQUIRE_DATA(path);
+  const OcctPart occt_part = read_part(path);
+  const occt::PartMesh b = brepmesh(path, occt_part.diagonal);
+  Tessellation stl;
+  for (const Triangle& t : b.mesh.triangles) {
+    const uint32_t base = static_cast<uint32_t>(stl.positions.size());
+    for (int c = 0; c < 3; ++c) stl.positions.push_back(Vec3(glm::vec3(b.mesh.positions[t[c]])));
+    stl.triangles.push_back({base, base + 1, base + 2});
+  }
+  const occt::PartMesh part = occt::mesh_on_part_file(path, stl, "its STL");
+  EXPECT_EQ(part.unassigned_triangles, 0u);
+  int extrusions = 0;
+  for (const occt::PartFace& f : part.faces) extrusions += f.surface_type == "SurfaceOfExtrusion" ? 1 : 0;
+  EXPECT_GE(extrusions, 2);
+  const app::PartCertificate cert = app::certify_part(part);
+  for (const app::FaceCertificate& f : cert.faces)
+    EXPECT_TRUE(f.certified) << part.faces[static_cast<size_t>(f.face)].name << ": " << f.reason;
+  const app::PartCertificate own = app::certify_part(b);
+  ASSERT_TRUE(own.all_certified);
+  // Float coordinates move the vertices by up to 1e-5 here; the bounds stay those of BRepMesh's mesh.
+  EXPECT_NEAR(cert.distance.hausdorff.upper, own.distance.hausdorff.upper, 1e-3 * own.distance.hausdorff.upper);
+  const BruteForce brute = expect_bounds_hold(occt_part, part, cert, "UKI60998 STL");
+  EXPECT_EQ(brute.faces_checked, 11);
+}
+
 // An offset of an elementary surface (a STEP file's OFFSET_SURFACE over a cylinder, as other CAD
 // systems write it): OCCT's Geom_OffsetSurface of a cylinder of radius 3 by 2 is the cylinder of
 // radius 5, with the same (u, v). Such a face was skipped ("offset surface: no exact rational
@@ -803,6 +834,61 @@ TEST_F(PlantedDefects, MissingTriangleOnAHoleIsNotCertified) {
     EXPECT_EQ(c.signed_volume, 0.0);
     EXPECT_FALSE(c.cgal_closed);
   }
+}
+
+// (e) A triangle on a hole's chord whose third corner's (U, V) is reflected across that chord: the
+// mesh in space is unchanged, but the triangle's (U, V) footprint now lies in the hole. The face is
+// not certified (the triangles fold over), and no lower bound may come from points of that
+// footprint: they are not points of the face (before: a face -> mesh "lower bound" measured from a
+// point in the hole, above the true distance). The mesh -> face lower bound is a distance to the
+// face's whole patches and stays.
+TEST_F(PlantedDefects, FootprintFoldedIntoAHoleGivesNoFacePoints) {
+  const int face = planar_loop_face(p, 2);
+  ASSERT_GE(face, 0) << "no trimmed planar face with a hole";
+  const occt::PartFace& f = p.part.faces[face];
+  const TopoDS_Face& occt_face = p.occt_part.face(face);
+  const TopoDS_Wire outer = BRepTools::OuterWire(occt_face);
+  const double fuzz = 1e-7 * p.occt_part.diagonal + brep_tolerance(occt_face);
+  const auto on_wire = [&](uint32_t vertex, const TopoDS_Shape& wire) {
+    const Vec3 x = p.part.mesh.positions[vertex];
+    BRepExtrema_DistShapeShape d(BRepBuilderAPI_MakeVertex(gp_Pnt(x.x, x.y, x.z)).Vertex(), wire);
+    return d.IsDone() && d.Value() <= fuzz;
+  };
+  const app::FaceCertificate& before = p.cert.faces[face];
+  int folded = 0;
+  double worst_lower = 0.0;
+  for (size_t k = 0; k < f.chords.size(); ++k) {
+    bool on_hole = false;
+    for (TopExp_Explorer w(occt_face, TopAbs_WIRE); w.More(); w.Next()) {
+      on_hole = on_hole || (!w.Current().IsSame(outer) && on_wire(f.chords[k].a, w.Current()) &&
+                            on_wire(f.chords[k].b, w.Current()));
+    }
+    if (!on_hole) continue;
+    const uint32_t a = f.chords[k].a, b = f.chords[k].b;
+    for (const size_t t : triangles_of(p.part, face)) {
+      const Triangle& tri = p.part.mesh.triangles[t];
+      int ia = -1, ib = -1;
+      for (int c = 0; c < 3; ++c) ia = tri[c] == a ? c : ia, ib = tri[c] == b ? c : ib;
+      if (ia < 0 || ib < 0) continue;
+      occt::PartMesh bent = p.part;
+      auto& uv = bent.mesh.triangle_uv[t];
+      const int ic = 3 - ia - ib;
+      uv[ic] = uv[ia] + uv[ib] - uv[ic];
+      const app::PartCertificate cert = app::certify_part(bent);
+      const app::FaceCertificate& fc = cert.faces[face];
+      EXPECT_FALSE(fc.certified);
+      // The mesh in space is the unchanged one, within `before.upper` of the face everywhere.
+      EXPECT_LE(fc.surface_to_mesh.lower, before.hausdorff.upper * (1 + 1e-9)) << f.name << " chord " << k;
+      EXPECT_LE(fc.hausdorff.lower, before.hausdorff.upper * (1 + 1e-9)) << f.name << " chord " << k;
+      EXPECT_LE(cert.distance.hausdorff.lower, p.target * (1 + 1e-9));
+      worst_lower = std::max(worst_lower, fc.surface_to_mesh.lower);
+      ++folded;
+    }
+    if (folded >= 4) break;
+  }
+  EXPECT_GE(folded, 1);
+  std::cout << f.name << ": " << folded << " folded triangles, largest face -> mesh lower bound " << worst_lower
+            << " against the true bound " << before.hausdorff.upper << "\n";
 }
 
 // (d) A face's patches missing part of it: its grid's last break moved to the middle of the last span
