@@ -2066,13 +2066,13 @@ bool take_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, const std::v
   pf.chord_metric = Vec2(g.su, g.sv);
   std::unordered_map<uint32_t, std::vector<Vec2>> loop_uv;
   for (const LoopPoint& p : loop) loop_uv[p.vertex].push_back(Vec2(p.q.x / g.cu, p.q.y / g.cv));
-  // Seam vertices: copies at least a quarter of the loops' extent apart (a seam's two sides; not a
-  // corner's copies from two p-curves, nor a pole's, whose copies run along its segment).
+  // Seam vertices: copies at least a quarter of the loops' extent apart in U or in V (a seam's two
+  // sides; not a corner's copies from two p-curves, nor a pole's, whose copies run along its segment).
   std::set<uint32_t> seams;
   {
     Vec2 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
     for (const LoopPoint& p : loop) lo = glm::min(lo, p.q), hi = glm::max(hi, p.q);
-    const double extent = glm::length(hi - lo);
+    const Vec2 extent = hi - lo;
     std::set<uint32_t> poles;
     for (TopExp_Explorer it(g.face, TopAbs_EDGE); it.More(); it.Next()) {
       const int e = b.x.edges.FindIndex(it.Current()) - 1;
@@ -2081,9 +2081,12 @@ bool take_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, const std::v
     }
     for (const auto& [v, copies] : loop_uv) {
       if (copies.size() < 2 || poles.count(v)) continue;
-      double spread = 0.0;
-      for (const Vec2& q : copies) spread = std::max(spread, glm::length((q - copies.front()) * Vec2(g.cu, g.cv)));
-      if (spread > 0.25 * extent) seams.insert(v);
+      bool apart = false;
+      for (const Vec2& q : copies) {
+        const Vec2 d = glm::abs((q - copies.front()) * Vec2(g.cu, g.cv));
+        apart = apart || d.x > 0.25 * extent.x || d.y > 0.25 * extent.y;
+      }
+      if (apart) seams.insert(v);
     }
   }
   const auto period_steps = [&](const Vec2& d) {
@@ -2139,14 +2142,12 @@ bool take_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, const std::v
       const auto on_loop = loop_uv.find(tris[t][c]);
       if (on_loop != loop_uv.end()) {
         double best = std::numeric_limits<double>::infinity();
-        // A seam vertex of a foreign mesh (its (u, v) projected, so on either side of the seam)
-        // takes the copy on the triangle's side, nearest the reference corner: on a surface closed
-        // but not periodic (an extrusion of a closed B-spline) no period brings it across.
-        const bool seam_copy = unwrap && rank >= 1 && c != reference && seams.count(tris[t][c]);
-        const Vec2 own = seam_copy ? ref : w;
+        const Vec2 own = w;
         for (const Vec2& q : on_loop->second) {
-          const double d = glm::length((q - own) * Vec2(g.su, g.sv));
-          if (d < best) best = d, w = q;
+          // Unwrapped (a foreign mesh's projected (u, v)): the copy whole periods next to the corner.
+          const Vec2 near = unwrap ? own + remove_periods(q - own) : q;
+          const double d = glm::length((near - own) * Vec2(g.su, g.sv));
+          if (d < best) best = d, w = near;
         }
       } else if (!b.surface_point_set[tris[t][c]]) {
         const Vec2 inside = wrap_uv(g, w).first;
@@ -2155,6 +2156,39 @@ bool take_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf, const std::v
         b.surface_point_set[tris[t][c]] = true;
       }
       uv[t][c] = w;
+    }
+    // Seam vertices of a foreign mesh get their (u, v) by projection, on either side of the seam, and
+    // on a surface closed but not periodic (an extrusion of a closed B-spline) no period brings them
+    // across; where all three corners lie on seams (a torus's corner vertex) no corner is a safe
+    // reference either. The seam corners take the copies that make the triangle smallest in (U, V)
+    // (its perimeter, the corners off seams fixed).
+    if (unwrap) {
+      std::array<const std::vector<Vec2>*, 3> choices{};
+      size_t combinations = 1;
+      for (int c = 0; c < 3; ++c) {
+        if (!seams.count(tris[t][c])) continue;
+        choices[c] = &loop_uv.at(tris[t][c]);
+        combinations *= choices[c]->size();
+      }
+      if (combinations > 1 && combinations <= 512) {
+        const Vec2 metric(g.su, g.sv), anchor = uv[t][reference];
+        double best = std::numeric_limits<double>::infinity();
+        std::array<Vec2, 3> pick = uv[t], trial = uv[t];
+        for (size_t k = 0; k < combinations; ++k) {
+          size_t rest = k;
+          for (int c = 0; c < 3; ++c) {
+            if (!choices[c]) continue;
+            const Vec2 q = (*choices[c])[rest % choices[c]->size()];
+            trial[c] = anchor + remove_periods(q - anchor);  // whole periods next to the reference
+            rest /= choices[c]->size();
+          }
+          const double perimeter = glm::length((trial[1] - trial[0]) * metric) +
+                                   glm::length((trial[2] - trial[1]) * metric) +
+                                   glm::length((trial[0] - trial[2]) * metric);
+          if (perimeter < best) best = perimeter, pick = trial;
+        }
+        uv[t] = pick;
+      }
     }
     emit_triangle(b, g, pf, tris[t], uv[t]);
   }

@@ -350,6 +350,23 @@ TEST(Part, PeriodicBSplineFacesAreCoveredByTheirPatches) {
   }
 }
 
+// The part is one closed B-rep solid (every face meshed, no free edge) and its mesh is closed, without
+// T-junctions and turned outward; returns the mesh's check.
+SolidCheck expect_one_closed_solid(const PartMesh& part) {
+  EXPECT_EQ(part.solids.size(), 1u);
+  EXPECT_TRUE(!part.solids.empty() && part.solids[0].closed);
+  EXPECT_EQ(part.faces_skipped, 0);
+  EXPECT_TRUE(part.boundary_edges.empty());
+  const std::vector<SolidCheck> checks = check_solids(part.mesh, part.triangle_solid, part.boundary_edges, {});
+  EXPECT_EQ(checks.size(), 1u);
+  if (checks.size() != 1u) return SolidCheck{};
+  EXPECT_TRUE(checks[0].closed);
+  EXPECT_EQ(checks[0].open_edges, 0u);
+  EXPECT_EQ(checks[0].t_junctions, 0u);
+  EXPECT_GT(checks[0].signed_volume, 0.0) << "the solid is turned outward";
+  return checks[0];
+}
+
 // IGES files often hold free faces (no shell): UKI60998.igs is 11 of them, and FreeCAD's IGES
 // export of a solid writes its faces so. Meshed face by face, such a part had 150 model-boundary
 // edges and 3 T-junctions where its faces meet. The reader now sews faces whose edges lie on them
@@ -386,17 +403,9 @@ TEST(Part, IgesFreeFacesAreSewnInTheirOrder) {
     }
   }
   const PartMesh part = mesh(path, 2);
-  ASSERT_EQ(part.solids.size(), 1u);
-  EXPECT_TRUE(part.solids[0].closed);
+  const SolidCheck check = expect_one_closed_solid(part);
   EXPECT_TRUE(part.solids[0].valid);
-  EXPECT_EQ(part.faces_skipped, 0);
-  EXPECT_TRUE(part.boundary_edges.empty());
-  const std::vector<SolidCheck> checks = check_solids(part.mesh, part.triangle_solid, part.boundary_edges, {});
-  ASSERT_EQ(checks.size(), 1u);
-  EXPECT_TRUE(checks[0].closed);
-  EXPECT_EQ(checks[0].t_junctions, 0u);
-  EXPECT_GT(checks[0].signed_volume, 0.0) << "the solid is turned outward";
-  EXPECT_NEAR(checks[0].signed_volume, part.solids[0].volume, 0.01 * part.solids[0].volume);
+  EXPECT_NEAR(check.signed_volume, part.solids[0].volume, 0.01 * part.solids[0].volume);
 }
 
 // A filleted box written as IGES faces (IGESControl_Writer's face mode, as FreeCAD exports) comes
@@ -416,18 +425,10 @@ TEST(Part, IgesExportOfASolidComesBackClosed) {
   writer.ComputeModel();
   ASSERT_TRUE(writer.Write(path.c_str()));
   const PartMesh part = mesh(path, 2);
-  ASSERT_EQ(part.solids.size(), 1u);
-  EXPECT_TRUE(part.solids[0].closed);
+  expect_one_closed_solid(part);
   GProp_GProps props;
   BRepGProp::VolumeProperties(solid, props);
   EXPECT_NEAR(part.solids[0].volume, props.Mass(), 1e-6 * props.Mass());
-  EXPECT_EQ(part.faces_skipped, 0);
-  EXPECT_TRUE(part.boundary_edges.empty());
-  const std::vector<SolidCheck> checks = check_solids(part.mesh, part.triangle_solid, part.boundary_edges, {});
-  ASSERT_EQ(checks.size(), 1u);
-  EXPECT_TRUE(checks[0].closed);
-  EXPECT_EQ(checks[0].open_edges, 0u);
-  EXPECT_GT(checks[0].signed_volume, 0.0);
 }
 
 // A face that reaches past its surface's parameter bounds lies partly on OCCT's extrapolation of the

@@ -18,21 +18,27 @@
 
 #include <BRepBndLib.hxx>
 #include <BRepBuilderAPI_Copy.hxx>
+#include <BRepBuilderAPI_MakeEdge.hxx>
+#include <BRepBuilderAPI_MakeFace.hxx>
 #include <BRepBuilderAPI_MakeVertex.hxx>
+#include <BRepBuilderAPI_MakeWire.hxx>
 #include <BRepClass_FaceClassifier.hxx>
 #include <BRepExtrema_DistShapeShape.hxx>
 #include <BRepPrimAPI_MakeCylinder.hxx>
+#include <BRepPrimAPI_MakeRevol.hxx>
 #include <BRepPrimAPI_MakeSphere.hxx>
 #include <BRepTools.hxx>
 #include <BRep_Builder.hxx>
 #include <BRep_Tool.hxx>
 #include <Bnd_Box.hxx>
 #include <Geom2d_Curve.hxx>
+#include <GeomAPI_Interpolate.hxx>
 #include <GeomAPI_ProjectPointOnSurf.hxx>
 #include <Geom_CylindricalSurface.hxx>
 #include <Geom_OffsetSurface.hxx>
 #include <Geom_Surface.hxx>
 #include <Precision.hxx>
+#include <TColgp_HArray1OfPnt.hxx>
 #include <TopExp.hxx>
 #include <TopExp_Explorer.hxx>
 #include <TopLoc_Location.hxx>
@@ -42,6 +48,7 @@
 #include <TopoDS_Face.hxx>
 #include <TopoDS_Vertex.hxx>
 #include <TopoDS_Wire.hxx>
+#include <gp_Ax1.hxx>
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
@@ -560,18 +567,23 @@ TEST(PartBruteForcePoles, FanWithTwoCornersOnOneMeridianIsCertified) {
 // closed B-spline curves) gets its (u, v) by projection, on either side of the seam, and no period
 // brings it across: BRepMesh's triangles read back as an STL certified 9 of 11 faces ("the
 // triangles fold over in (U, V)"). Such a vertex now takes the seam copy on its triangle's side.
+// BRepMesh's triangles as an STL gives them: float positions, per-triangle corners.
+Tessellation as_stl(const Tessellation& mesh) {
+  Tessellation stl;
+  for (const Triangle& t : mesh.triangles) {
+    const uint32_t base = static_cast<uint32_t>(stl.positions.size());
+    for (int c = 0; c < 3; ++c) stl.positions.push_back(Vec3(glm::vec3(mesh.positions[t[c]])));
+    stl.triangles.push_back({base, base + 1, base + 2});
+  }
+  return stl;
+}
+
 TEST(PartBruteForceSeams, StlOfClosedExtrusionsIsCertifiedOnEveryFace) {
   const std::string path = shared_data("cad/step/UKI60998.igs");
   SAGITTA_REQUIRE_DATA(path);
   const OcctPart occt_part = read_part(path);
   const occt::PartMesh b = brepmesh(path, occt_part.diagonal);
-  Tessellation stl;
-  for (const Triangle& t : b.mesh.triangles) {
-    const uint32_t base = static_cast<uint32_t>(stl.positions.size());
-    for (int c = 0; c < 3; ++c) stl.positions.push_back(Vec3(glm::vec3(b.mesh.positions[t[c]])));
-    stl.triangles.push_back({base, base + 1, base + 2});
-  }
-  const occt::PartMesh part = occt::mesh_on_part_file(path, stl, "its STL");
+  const occt::PartMesh part = occt::mesh_on_part_file(path, as_stl(b.mesh), "its STL");
   EXPECT_EQ(part.unassigned_triangles, 0u);
   int extrusions = 0;
   for (const occt::PartFace& f : part.faces) extrusions += f.surface_type == "SurfaceOfExtrusion" ? 1 : 0;
@@ -585,6 +597,40 @@ TEST(PartBruteForceSeams, StlOfClosedExtrusionsIsCertifiedOnEveryFace) {
   EXPECT_NEAR(cert.distance.hausdorff.upper, own.distance.hausdorff.upper, 1e-3 * own.distance.hausdorff.upper);
   const BruteForce brute = expect_bounds_hold(occt_part, part, cert, "UKI60998 STL");
   EXPECT_EQ(brute.faces_checked, 11);
+}
+
+// A torus's one vertex is the corner of its (U, V) domain, where both seams meet: four copies, and a
+// triangle there has all three corners on seams, so no corner could serve as the reference for the
+// others' sides ("the triangles fold over in (U, V)" on BRepMesh's STL of a whole torus). The seam
+// corners now take the copies that make the triangle smallest.
+TEST(PartBruteForceSeams, StlOfAWholeTorusIsCertified) {
+  // A periodic B-spline section (8 points of a wobbly circle of radius 5 about (20, 0, 0), in the
+  // plane y = 0) revolved about z: one face of revolution, periodic both ways (FreeCAD's Revolve).
+  Handle(TColgp_HArray1OfPnt) points = new TColgp_HArray1OfPnt(1, 8);
+  for (int k = 0; k < 8; ++k) {
+    const double t = 2.0 * M_PI * k / 8.0, r = 5.0 * (1.0 + 0.2 * std::sin(3.0 * t));
+    points->SetValue(k + 1, gp_Pnt(20.0 + r * std::cos(t), 0.0, r * std::sin(t)));
+  }
+  GeomAPI_Interpolate interpolate(points, true, 1e-9);
+  interpolate.Perform();
+  ASSERT_TRUE(interpolate.IsDone());
+  const TopoDS_Wire section = BRepBuilderAPI_MakeWire(BRepBuilderAPI_MakeEdge(interpolate.Curve()).Edge()).Wire();
+  const TopoDS_Shape torus =
+      BRepPrimAPI_MakeRevol(BRepBuilderAPI_MakeFace(section, true).Face(), gp_Ax1(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1)))
+          .Shape();
+  const std::string path = testing::TempDir() + "/sagitta_spline_torus.brep";
+  ASSERT_TRUE(BRepTools::Write(torus, path.c_str()));
+  const OcctPart occt_part = read_part(path);
+  const occt::PartMesh b = brepmesh(path, occt_part.diagonal);
+  const app::PartCertificate own = app::certify_part(b);
+  ASSERT_TRUE(own.all_certified);
+  const occt::PartMesh part = occt::mesh_on_part_file(path, as_stl(b.mesh), "its STL");
+  EXPECT_EQ(part.unassigned_triangles, 0u);
+  const app::PartCertificate cert = app::certify_part(part);
+  ASSERT_TRUE(cert.all_certified) << cert.faces.front().reason;
+  EXPECT_NEAR(cert.distance.hausdorff.upper, own.distance.hausdorff.upper, 1e-3 * own.distance.hausdorff.upper);
+  const BruteForce brute = expect_bounds_hold(occt_part, part, cert, "torus STL");
+  EXPECT_EQ(brute.faces_checked, 1);
 }
 
 // An offset of an elementary surface (a STEP file's OFFSET_SURFACE over a cylinder, as other CAD
@@ -699,6 +745,30 @@ int planar_loop_face(const Planted& p, int wires) {
   return -1;
 }
 
+// The chords of `face` on a hole's boundary: both vertices within the B-rep's tolerance of a wire
+// other than the outer one.
+std::vector<size_t> hole_chords(const Planted& p, int face) {
+  const occt::PartFace& f = p.part.faces[static_cast<size_t>(face)];
+  const TopoDS_Face& occt_face = p.occt_part.face(face);
+  const TopoDS_Wire outer = BRepTools::OuterWire(occt_face);
+  const double fuzz = 1e-7 * p.occt_part.diagonal + brep_tolerance(occt_face);
+  const auto on_wire = [&](uint32_t vertex, const TopoDS_Shape& wire) {
+    const Vec3 x = p.part.mesh.positions[vertex];
+    BRepExtrema_DistShapeShape d(BRepBuilderAPI_MakeVertex(gp_Pnt(x.x, x.y, x.z)).Vertex(), wire);
+    return d.IsDone() && d.Value() <= fuzz;
+  };
+  std::vector<size_t> out;
+  for (size_t k = 0; k < f.chords.size(); ++k) {
+    bool on_hole = false;
+    for (TopExp_Explorer w(occt_face, TopAbs_WIRE); w.More() && !on_hole; w.Next()) {
+      on_hole =
+          !w.Current().IsSame(outer) && on_wire(f.chords[k].a, w.Current()) && on_wire(f.chords[k].b, w.Current());
+    }
+    if (on_hole) out.push_back(k);
+  }
+  return out;
+}
+
 // Faces other than `changed` keep exactly their certificate.
 void expect_other_faces_unchanged(const app::PartCertificate& before, const app::PartCertificate& after,
                                   const std::set<int>& changed) {
@@ -776,23 +846,9 @@ TEST_F(PlantedDefects, MissingTriangleOnAHoleIsNotCertified) {
   const int face = planar_loop_face(p, 2);
   ASSERT_GE(face, 0) << "no trimmed planar face with a hole";
   const occt::PartFace& f = p.part.faces[face];
-  const TopoDS_Face& occt_face = p.occt_part.face(face);
-  const TopoDS_Wire outer = BRepTools::OuterWire(occt_face);
-  // A chord on an inner wire: both its vertices within the B-rep's tolerance of a wire other than the outer one.
-  const double fuzz = 1e-7 * p.occt_part.diagonal + brep_tolerance(occt_face);
-  const auto on_wire = [&](uint32_t vertex, const TopoDS_Shape& wire) {
-    const Vec3 x = p.part.mesh.positions[vertex];
-    BRepExtrema_DistShapeShape d(BRepBuilderAPI_MakeVertex(gp_Pnt(x.x, x.y, x.z)).Vertex(), wire);
-    return d.IsDone() && d.Value() <= fuzz;
-  };
-  int hole_chord = -1;
-  for (size_t k = 0; k < f.chords.size() && hole_chord < 0; ++k) {
-    for (TopExp_Explorer w(occt_face, TopAbs_WIRE); w.More(); w.Next()) {
-      if (!w.Current().IsSame(outer) && on_wire(f.chords[k].a, w.Current()) && on_wire(f.chords[k].b, w.Current()))
-        hole_chord = static_cast<int>(k);
-    }
-  }
-  ASSERT_GE(hole_chord, 0) << f.name;
+  const std::vector<size_t> on_holes = hole_chords(p, face);
+  ASSERT_FALSE(on_holes.empty()) << f.name;
+  const size_t hole_chord = on_holes.front();
   const uint32_t a = f.chords[hole_chord].a, b = f.chords[hole_chord].b;
   size_t removed = p.part.mesh.triangles.size();
   for (const size_t t : triangles_of(p.part, face)) {
@@ -846,24 +902,10 @@ TEST_F(PlantedDefects, FootprintFoldedIntoAHoleGivesNoFacePoints) {
   const int face = planar_loop_face(p, 2);
   ASSERT_GE(face, 0) << "no trimmed planar face with a hole";
   const occt::PartFace& f = p.part.faces[face];
-  const TopoDS_Face& occt_face = p.occt_part.face(face);
-  const TopoDS_Wire outer = BRepTools::OuterWire(occt_face);
-  const double fuzz = 1e-7 * p.occt_part.diagonal + brep_tolerance(occt_face);
-  const auto on_wire = [&](uint32_t vertex, const TopoDS_Shape& wire) {
-    const Vec3 x = p.part.mesh.positions[vertex];
-    BRepExtrema_DistShapeShape d(BRepBuilderAPI_MakeVertex(gp_Pnt(x.x, x.y, x.z)).Vertex(), wire);
-    return d.IsDone() && d.Value() <= fuzz;
-  };
   const app::FaceCertificate& before = p.cert.faces[face];
   int folded = 0;
   double worst_lower = 0.0;
-  for (size_t k = 0; k < f.chords.size(); ++k) {
-    bool on_hole = false;
-    for (TopExp_Explorer w(occt_face, TopAbs_WIRE); w.More(); w.Next()) {
-      on_hole = on_hole || (!w.Current().IsSame(outer) && on_wire(f.chords[k].a, w.Current()) &&
-                            on_wire(f.chords[k].b, w.Current()));
-    }
-    if (!on_hole) continue;
+  for (const size_t k : hole_chords(p, face)) {
     const uint32_t a = f.chords[k].a, b = f.chords[k].b;
     for (const size_t t : triangles_of(p.part, face)) {
       const Triangle& tri = p.part.mesh.triangles[t];
