@@ -551,11 +551,12 @@ TopoDS_Shape sew_free_faces(const TopoDS_Shape& shape) {
     sewing.Perform();
     const TopoDS_Shape result = sewing.SewedShape();
     // Each sewn face as the result holds it (its orientation in its shell), found by its TShape.
-    const auto oriented = [&](const TopoDS_Shape& face) -> TopoDS_Shape {
-      for (TopExp_Explorer it(result, TopAbs_FACE); it.More(); it.Next()) {
-        if (it.Current().IsSame(face)) return it.Current();
-      }
-      return TopoDS_Shape();
+    std::unordered_map<const TopoDS_TShape*, TopoDS_Shape> in_result;
+    for (TopExp_Explorer it(result, TopAbs_FACE); it.More(); it.Next())
+      in_result.emplace(it.Current().TShape().get(), it.Current());
+    const auto oriented = [&](const TopoDS_Shape& face) {
+      const auto found = in_result.find(face.TShape().get());
+      return found == in_result.end() ? TopoDS_Shape() : found->second;
     };
     BRep_Builder builder;
     TopoDS_Shell shell;

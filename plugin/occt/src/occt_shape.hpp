@@ -15,8 +15,8 @@ namespace sagitta::occt {
 // The shape in a STEP / IGES / BREP file; throws InputError naming the file when it cannot be read.
 TopoDS_Shape read_cad_shape(const std::string& path);
 // A shape of free faces (no shell; IGES files often are) with its faces sewn where they meet, or the
-// shape itself. Faces whose edges' 3D curves lie within 1e-6 of the shape's diagonal of the face are
-// sewn at that tolerance (a face whose edges lie further off stays free: sewing would move its
+// shape itself. Faces whose edges' 3D curves lie on the face to within 1e-6 of the shape's diagonal
+// are sewn at that tolerance (a face whose edges lie further off stays free: sewing would move its
 // boundary onto curves off it). The result is one shell holding every face in the shape's face order
 // (the faces' names stay), or a solid, oriented outward, when every face was sewn into one closed
 // shell.
