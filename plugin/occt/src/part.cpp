@@ -2225,6 +2225,10 @@ void tile_pole(const FaceGeometry& g, const TopoDS_Edge& edge, double tolerance,
   if (!(len2 > 0.0)) return;
   const uint32_t pole = s.vertex.front();
   const auto along = [&](const Vec2& q) { return std::clamp(glm::dot(q - A, B - A) / len2, 0.0, 1.0); };
+  const auto loop_point = [&](const Vec2& q) {  // as face_loops places it
+    const Vec2 UV = face_to_uv(g, q.x, q.y);
+    return Vec2(UV.x * g.cu, UV.y * g.cv);
+  };
   std::vector<double> t = s.t;
   std::vector<size_t> dropped;
   const size_t count = triangles.size();
@@ -2243,10 +2247,6 @@ void tile_pole(const FaceGeometry& g, const TopoDS_Edge& edge, double tolerance,
     const Vec2 qa = A + sa * (B - A), qb = A + sb * (B - A);
     t.push_back(f + sa * (l - f)), t.push_back(f + sb * (l - f));
     raw[k][c] = qa;
-    const auto loop_point = [&](const Vec2& q) {
-      const Vec2 UV = face_to_uv(g, q.x, q.y);
-      return Vec2(UV.x * g.cu, UV.y * g.cv);
-    };
     if (sa != sb && glm::length(loop_point(qa) - loop_point(qb)) > tolerance) {
       triangles.push_back({pole, triangles[k][bb], pole});
       raw.push_back({qa, raw[k][bb], qb});
@@ -2565,10 +2565,12 @@ void triangles_to_faces(const PartBuilder& b, MeshOnShape& m, const std::vector<
   // Whether the surface point at (u, v) lies inside face f (whole periods tried in periodic directions).
   const auto inside = [&](int f, double u, double v) {
     const FaceGeometry& g = b.geometry[static_cast<size_t>(f)];
-    double u0, u1, v0, v1;
-    BRepTools::UVBounds(g.face, u0, u1, v0, v1);
     auto& classifier = classifiers[f];
-    if (!classifier) classifier = std::make_unique<BRepTopAdaptor_FClass2d>(g.face, 1e-9 * std::max(u1 - u0, v1 - v0));
+    if (!classifier) {
+      double u0, u1, v0, v1;
+      BRepTools::UVBounds(g.face, u0, u1, v0, v1);
+      classifier = std::make_unique<BRepTopAdaptor_FClass2d>(g.face, 1e-9 * std::max(u1 - u0, v1 - v0));
+    }
     for (const int i : {0, -1, 1}) {
       for (const int j : {0, -1, 1}) {
         if ((i != 0 && !(g.u_period > 0.0)) || (j != 0 && !(g.v_period > 0.0))) continue;
