@@ -2648,7 +2648,31 @@ bool take_mesh_face(PartBuilder& b, const MeshOnShape& m, const FaceGeometry& g,
       return false;
     }
   }
-  return take_face(b, g, pf, triangles, raw, true);
+  // An edge's samples are the mesh vertices on it, whichever triangles use them: on an edge that
+  // another solid's face touches (tr10's pins in their holes) the pin's vertices lie on the hole's
+  // edge too, and the hole face's triangles, which do not use them, no longer matched its loops.
+  // The face's loops take the samples its triangles use (and the edge's ends); the others are
+  // restored for the next face.
+  std::unordered_set<uint32_t> used;
+  for (const auto& tri : triangles) used.insert(tri.begin(), tri.end());
+  std::vector<std::pair<size_t, EdgeSamples>> saved;
+  for (TopExp_Explorer it(g.face, TopAbs_EDGE); it.More(); it.Next()) {
+    const int e = b.x.edges.FindIndex(it.Current()) - 1;
+    if (e < 0 || BRep_Tool::Degenerated(TopoDS::Edge(it.Current()))) continue;
+    EdgeSamples& s = b.edges[static_cast<size_t>(e)];
+    EdgeSamples kept = s;
+    kept.t.clear(), kept.vertex.clear();
+    for (size_t k = 0; k < s.t.size(); ++k) {
+      if (k == 0 || k + 1 == s.t.size() || used.count(s.vertex[k]))
+        kept.t.push_back(s.t[k]), kept.vertex.push_back(s.vertex[k]);
+    }
+    if (kept.t.size() == s.t.size()) continue;
+    saved.emplace_back(static_cast<size_t>(e), s);
+    s = std::move(kept);
+  }
+  const bool taken = take_face(b, g, pf, triangles, raw, true);
+  for (auto& [e, samples] : saved) b.edges[e] = std::move(samples);
+  return taken;
 }
 
 PartMesh mesh_on_shape(const TopoDS_Shape& shape, const std::string& name, const Tessellation& mesh) {
