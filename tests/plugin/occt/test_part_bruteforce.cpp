@@ -578,24 +578,43 @@ Tessellation as_stl(const Tessellation& mesh) {
   return stl;
 }
 
+// A part meshed by BRepMesh at 1e-2 of its diagonal and certified, and the same triangles read back
+// from an STL (as_stl) and certified: every face of the STL is expected certified, no triangle left
+// on no face, and its bound that of BRepMesh's own mesh (float coordinates move the vertices by up
+// to 1e-5 of the part).
+struct StlRoundTrip {
+  OcctPart occt_part;
+  occt::PartMesh part;  // the STL on the part
+  app::PartCertificate cert;
+};
+
+StlRoundTrip expect_stl_certified_as_brepmesh(const std::string& path) {
+  StlRoundTrip r;
+  r.occt_part = read_part(path);
+  const occt::PartMesh b = brepmesh(path, r.occt_part.diagonal);
+  const app::PartCertificate own = app::certify_part(b);
+  EXPECT_TRUE(own.all_certified) << path;
+  r.part = occt::mesh_on_part_file(path, as_stl(b.mesh), "its STL");
+  EXPECT_EQ(r.part.unassigned_triangles, 0u);
+  r.cert = app::certify_part(r.part);
+  int not_certified = 0;
+  for (const app::FaceCertificate& f : r.cert.faces) {
+    if (f.certified || ++not_certified > 5) continue;
+    ADD_FAILURE() << path << " " << r.part.faces[static_cast<size_t>(f.face)].name << ": " << f.reason;
+  }
+  EXPECT_EQ(r.cert.faces_certified, static_cast<int>(r.part.faces.size())) << path;
+  EXPECT_NEAR(r.cert.distance.hausdorff.upper, own.distance.hausdorff.upper, 1e-3 * own.distance.hausdorff.upper);
+  return r;
+}
+
 TEST(PartBruteForceSeams, StlOfClosedExtrusionsIsCertifiedOnEveryFace) {
   const std::string path = shared_data("cad/step/UKI60998.igs");
   SAGITTA_REQUIRE_DATA(path);
-  const OcctPart occt_part = read_part(path);
-  const occt::PartMesh b = brepmesh(path, occt_part.diagonal);
-  const occt::PartMesh part = occt::mesh_on_part_file(path, as_stl(b.mesh), "its STL");
-  EXPECT_EQ(part.unassigned_triangles, 0u);
+  const StlRoundTrip r = expect_stl_certified_as_brepmesh(path);
   int extrusions = 0;
-  for (const occt::PartFace& f : part.faces) extrusions += f.surface_type == "SurfaceOfExtrusion" ? 1 : 0;
+  for (const occt::PartFace& f : r.part.faces) extrusions += f.surface_type == "SurfaceOfExtrusion" ? 1 : 0;
   EXPECT_GE(extrusions, 2);
-  const app::PartCertificate cert = app::certify_part(part);
-  for (const app::FaceCertificate& f : cert.faces)
-    EXPECT_TRUE(f.certified) << part.faces[static_cast<size_t>(f.face)].name << ": " << f.reason;
-  const app::PartCertificate own = app::certify_part(b);
-  ASSERT_TRUE(own.all_certified);
-  // Float coordinates move the vertices by up to 1e-5 here; the bounds stay those of BRepMesh's mesh.
-  EXPECT_NEAR(cert.distance.hausdorff.upper, own.distance.hausdorff.upper, 1e-3 * own.distance.hausdorff.upper);
-  const BruteForce brute = expect_bounds_hold(occt_part, part, cert, "UKI60998 STL");
+  const BruteForce brute = expect_bounds_hold(r.occt_part, r.part, r.cert, "UKI60998 STL");
   EXPECT_EQ(brute.faces_checked, 11);
 }
 
@@ -608,21 +627,8 @@ TEST(PartBruteForceSeams, StlOfClosedExtrusionsIsCertifiedOnEveryFace) {
 TEST(PartBruteForceStl, PinsInHolesAreCertifiedOnEveryFace) {
   const std::string path = shared_data("cad/step/tr10_r0901_ec.stp");
   SAGITTA_REQUIRE_DATA(path);
-  const OcctPart occt_part = read_part(path);
-  const occt::PartMesh b = brepmesh(path, occt_part.diagonal);
-  const app::PartCertificate own = app::certify_part(b);
-  ASSERT_TRUE(own.all_certified);
-  const occt::PartMesh part = occt::mesh_on_part_file(path, as_stl(b.mesh), "its STL");
-  EXPECT_EQ(part.unassigned_triangles, 0u);
-  const app::PartCertificate cert = app::certify_part(part);
-  int not_certified = 0;
-  for (const app::FaceCertificate& f : cert.faces) {
-    not_certified += f.certified ? 0 : 1;
-    EXPECT_TRUE(f.certified) << part.faces[static_cast<size_t>(f.face)].name << ": " << f.reason;
-    if (not_certified > 5) break;
-  }
-  EXPECT_EQ(cert.faces_certified, 160);
-  EXPECT_NEAR(cert.distance.hausdorff.upper, own.distance.hausdorff.upper, 1e-3 * own.distance.hausdorff.upper);
+  const StlRoundTrip r = expect_stl_certified_as_brepmesh(path);
+  EXPECT_EQ(r.cert.faces_certified, 160);
 }
 
 // A torus's one vertex is the corner of its (U, V) domain, where both seams meet: four copies, and a
@@ -646,16 +652,8 @@ TEST(PartBruteForceSeams, StlOfAWholeTorusIsCertified) {
           .Shape();
   const std::string path = testing::TempDir() + "/sagitta_spline_torus.brep";
   ASSERT_TRUE(BRepTools::Write(torus, path.c_str()));
-  const OcctPart occt_part = read_part(path);
-  const occt::PartMesh b = brepmesh(path, occt_part.diagonal);
-  const app::PartCertificate own = app::certify_part(b);
-  ASSERT_TRUE(own.all_certified);
-  const occt::PartMesh part = occt::mesh_on_part_file(path, as_stl(b.mesh), "its STL");
-  EXPECT_EQ(part.unassigned_triangles, 0u);
-  const app::PartCertificate cert = app::certify_part(part);
-  ASSERT_TRUE(cert.all_certified) << cert.faces.front().reason;
-  EXPECT_NEAR(cert.distance.hausdorff.upper, own.distance.hausdorff.upper, 1e-3 * own.distance.hausdorff.upper);
-  const BruteForce brute = expect_bounds_hold(occt_part, part, cert, "torus STL");
+  const StlRoundTrip r = expect_stl_certified_as_brepmesh(path);
+  const BruteForce brute = expect_bounds_hold(r.occt_part, r.part, r.cert, "torus STL");
   EXPECT_EQ(brute.faces_checked, 1);
 }
 
