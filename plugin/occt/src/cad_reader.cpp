@@ -98,12 +98,19 @@ const char* surface_type_name(const Handle(Geom_Surface)& s) {
 
 }  // namespace
 
-Handle(Geom_Surface) exact_surface(const Handle(Geom_Surface) & surface, double u0, double u1, double v0, double v1) {
-  Handle(Geom_Surface) basis = surface;
-  while (!basis.IsNull() && basis->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))
-    basis = Handle(Geom_RectangularTrimmedSurface)::DownCast(basis)->BasisSurface();
+Handle(Geom_Surface) untrimmed(Handle(Geom_Surface) surface) {
+  while (!surface.IsNull() && surface->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))
+    surface = Handle(Geom_RectangularTrimmedSurface)::DownCast(surface)->BasisSurface();
+  return surface;
+}
+
+Handle(Geom_Surface) exact_surface(const TopoDS_Face& face) {
+  const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);  // location applied
+  const Handle(Geom_Surface) basis = untrimmed(surface);
   if (basis.IsNull() || !basis->IsKind(STANDARD_TYPE(Geom_OffsetSurface))) return surface;
   const Handle(Geom_OffsetSurface) offset = Handle(Geom_OffsetSurface)::DownCast(basis);
+  double u0 = 0.0, u1 = 0.0, v0 = 0.0, v1 = 0.0;
+  BRepTools::UVBounds(face, u0, u1, v0, v1);
   Handle(Geom_Surface) equivalent;
   try {
     equivalent = offset->Surface();
@@ -245,9 +252,7 @@ double face_tolerance(const TopoDS_Face& face) {
 std::vector<BezierPatch> decompose(Handle(Geom_Surface) s, double u0, double u1, double v0, double v1, std::string& reason,
                                    std::vector<double>& u_breaks, std::vector<double>& v_breaks,
                                    Handle(Geom_BSplineSurface)* converted = nullptr) {
-  while (s->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface))) {
-    s = Handle(Geom_RectangularTrimmedSurface)::DownCast(s)->BasisSurface();
-  }
+  s = untrimmed(s);
   if (!std::isfinite(u0) || !std::isfinite(u1) || !std::isfinite(v0) || !std::isfinite(v1) || !(u0 < u1) || !(v0 < v1)) {
     reason = "the face has no finite, non-empty parameter range";
     return {};
@@ -658,29 +663,30 @@ std::vector<BezierPatch> face_patches(const TopoDS_Face& face, const std::string
                                       FaceReport& r, Handle(Geom_BSplineSurface)* converted) {
   std::vector<BezierPatch> patches;
   try {
-    Handle(Geom_Surface) surface = BRep_Tool::Surface(face);  // location applied
-    if (surface.IsNull()) {
+    const Handle(Geom_Surface) given = BRep_Tool::Surface(face);  // location applied
+    if (given.IsNull()) {
       r.surface_type = "none";
       r.reason = "the face has no surface";
     } else {
       double u0, u1, v0, v1;
       BRepTools::UVBounds(face, u0, u1, v0, v1);
-      const Handle(Geom_Surface) given = surface;
-      surface = exact_surface(surface, u0, u1, v0, v1);
-      Handle(Geom_Surface) basis = surface;
-      while (basis->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))
-        basis = Handle(Geom_RectangularTrimmedSurface)::DownCast(basis)->BasisSurface();
+      const Handle(Geom_Surface) surface = exact_surface(face);
+      const Handle(Geom_Surface) basis = untrimmed(surface);
       r.surface_type = surface_type_name(basis);
-      if (surface != given) r.surface_type = "OffsetSurface (" + r.surface_type + ")";
+      // An offset replaced by the elementary surface it equals is named as both.
+      if (untrimmed(given)->IsKind(STANDARD_TYPE(Geom_OffsetSurface)) &&
+          !basis->IsKind(STANDARD_TYPE(Geom_OffsetSurface)))
+        r.surface_type = "OffsetSurface (" + r.surface_type + ")";
       const bool analytic =
           !basis->IsKind(STANDARD_TYPE(Geom_BSplineSurface)) && !basis->IsKind(STANDARD_TYPE(Geom_BezierSurface));
       const double reach = analytic && !options.convert_analytic ? 0.0 : reach_past_bounds(face, basis);
+      const double tolerance = face_tolerance(face);
       if (analytic && !options.convert_analytic) {
         r.reason = "analytic surface and convert_analytic is off";
-      } else if (!(reach <= 10.0 * face_tolerance(face))) {
+      } else if (!(reach <= 10.0 * tolerance)) {
         std::ostringstream why;
-        why << "the face reaches " << reach << " past its surface's parameter bounds (10x its tolerance "
-            << face_tolerance(face) << "): it lies partly on an extrapolation of the surface";
+        why << "the face reaches " << reach << " past its surface's parameter bounds (10x its tolerance " << tolerance
+            << "): it lies partly on an extrapolation of the surface";
         r.reason = why.str();
       } else {
         patches = decompose(surface, u0, u1, v0, v1, r.reason, r.u_breaks, r.v_breaks, converted);

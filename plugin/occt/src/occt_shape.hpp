@@ -23,11 +23,13 @@ TopoDS_Shape read_cad_shape(const std::string& path);
 TopoDS_Shape sew_free_faces(const TopoDS_Shape& shape);
 // The shape in a BREP text.
 TopoDS_Shape read_brep_shape(const std::string& text, const std::string& name);
-// The surface itself, or, for an offset (OCCT's Geom_OffsetSurface, possibly rectangular-trimmed) of
-// a plane, cylinder, cone, sphere or torus, the elementary surface it equals with the same (u, v)
-// (Geom_OffsetSurface::Surface(), checked over [u0, u1] x [v0, v1]). An offset of anything else has no
-// exact rational form and is returned as it is.
-Handle(Geom_Surface) exact_surface(const Handle(Geom_Surface) & surface, double u0, double u1, double v0, double v1);
+// The surface under any rectangular trims (Geom_RectangularTrimmedSurface) of it.
+Handle(Geom_Surface) untrimmed(Handle(Geom_Surface) surface);
+// The face's surface (location applied), or, for an offset (OCCT's Geom_OffsetSurface, possibly
+// rectangular-trimmed) of a plane, cylinder, cone, sphere or torus, the elementary surface it equals
+// with the same (u, v) (Geom_OffsetSurface::Surface(), checked over the face's (u, v) bounds). An
+// offset of anything else has no exact rational form and is returned as it is.
+Handle(Geom_Surface) exact_surface(const TopoDS_Face& face);
 // The face's Bézier patches (u reversed on a reversed face); empty when the face is skipped, with
 // r.reason saying why. Sets r's surface type, breaks and (for a trimmed face) status "trimmed".
 // `converted` (when given) receives the B-spline surface the patches split, in the breaks' parameters

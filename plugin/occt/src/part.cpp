@@ -359,28 +359,15 @@ FaceGeometry face_geometry(const ShapeIndex& x, int f, const std::string& name, 
   const int k = x.face_solids.FindIndex(g.face);
   if (k > 0 && !x.face_solids(k).IsEmpty()) g.solid = x.solids.FindIndex(x.face_solids(k).First()) - 1;
   if (g.patches.empty()) return g;
-  {
-    double u0 = 0.0, u1 = 0.0, v0 = 0.0, v1 = 0.0;
-    BRepTools::UVBounds(g.face, u0, u1, v0, v1);
-    g.surface = exact_surface(BRep_Tool::Surface(g.face), u0, u1, v0, v1);  // as face_patches converted it
-  }
-  {
-    Handle(Geom_Surface) basis = g.surface;
-    while (basis->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))
-      basis = Handle(Geom_RectangularTrimmedSurface)::DownCast(basis)->BasisSurface();
-    if (basis->IsUPeriodic()) g.u_period = basis->UPeriod();
-    if (basis->IsVPeriodic()) g.v_period = basis->VPeriod();
-  }
+  g.surface = exact_surface(g.face);  // as face_patches converted it
+  const Handle(Geom_Surface) basis = untrimmed(g.surface);
+  if (basis->IsUPeriodic()) g.u_period = basis->UPeriod();
+  if (basis->IsVPeriodic()) g.v_period = basis->VPeriod();
   g.nu = static_cast<int>(g.report.u_breaks.size()) - 1;
   g.nv = static_cast<int>(g.report.v_breaks.size()) - 1;
-  if (g.converted.IsNull() == false) {
-    // B-spline and Bézier faces keep their parameters; only analytic ones need the map.
-    Handle(Geom_Surface) basis = g.surface;
-    while (basis->IsKind(STANDARD_TYPE(Geom_RectangularTrimmedSurface)))
-      basis = Handle(Geom_RectangularTrimmedSurface)::DownCast(basis)->BasisSurface();
-    if (basis->IsKind(STANDARD_TYPE(Geom_BSplineSurface)) || basis->IsKind(STANDARD_TYPE(Geom_BezierSurface)))
-      g.converted.Nullify();
-  }
+  // B-spline and Bézier faces keep their parameters; only analytic ones need the map.
+  if (basis->IsKind(STANDARD_TYPE(Geom_BSplineSurface)) || basis->IsKind(STANDARD_TYPE(Geom_BezierSurface)))
+    g.converted.Nullify();
   set_scale(g);
   g.identity_map = g.converted.IsNull() || keeps_parameters(g);
   if (!g.identity_map) {
