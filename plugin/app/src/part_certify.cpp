@@ -792,32 +792,56 @@ class EdgeChain {
 // triangle has one orientation, and the triangles' oriented boundary equals the chords' chain (up to
 // one global sign). Then, by the degree of the map, each point inside the polygon lies in exactly
 // one triangle. Fills chord_triangle (per chord: the triangle on it).
+//
+// A flat triangle (its corners on one line in (U, V) up to a height of 1e-7 of the range: a foreign
+// mesh's triangle along a cone's generator with the apex, or one whose two corners are distinct
+// vertices at one point, both in float STLs) has no orientation to check. Its boundary chain lies
+// within its height of a segment and nearly cancels there, so the other triangles' boundary is the
+// chords' chain up to such thin loops: they cover each point of the polygon once except within the
+// flat triangles' footprints (which cover the rest: every triangle is certified over its own
+// footprint), and no footprint leaves the polygon by more than the flat triangles' heights
+// together, returned in flat_reach (the caller adds the surface's speed times it to every bound).
 std::string tiling_reason(const Grid& g, const std::vector<Triangle>& vertices,
-                          const std::vector<std::array<Vec2, 3>>& corner_uv, std::vector<uint32_t>& chord_triangle) {
+                          const std::vector<std::array<Vec2, 3>>& corner_uv, std::vector<uint32_t>& chord_triangle,
+                          double& flat_reach) {
   const occt::PartFace& f = g.f;
   int orientation = 0;
+  const double flat = 1e-7 * g.range();
+  flat_reach = 0.0;
   for (const auto& q : corner_uv) {
     const long double area =
         (static_cast<long double>(q[1].x) - q[0].x) * (static_cast<long double>(q[2].y) - q[0].y) -
         (static_cast<long double>(q[2].x) - q[0].x) * (static_cast<long double>(q[1].y) - q[0].y);
-    const int s = area > 0.0L ? 1 : area < 0.0L ? -1 : 0;
-    if (s == 0) return "a triangle is degenerate in (U, V)";
+    const double longest = std::max({glm::length(q[1] - q[0]), glm::length(q[2] - q[1]), glm::length(q[0] - q[2])});
+    const double height = longest > 0.0 ? 2.0 * static_cast<double>(std::abs(area)) / longest : 0.0;
+    if (height <= flat) {
+      flat_reach += height * (1.0 + 1e-12);
+      continue;
+    }
+    const int s = area > 0.0L ? 1 : -1;
     if (orientation == 0) orientation = s;
     if (s != orientation) return "the triangles fold over in (U, V) (both orientations)";
   }
-  EdgeChain chain(g, 1e-7 * g.range());
+  if (orientation == 0) return "every triangle is degenerate in (U, V)";
+  const double chain_tolerance = 1e-7 * g.range();
+  EdgeChain chain(g, chain_tolerance);
   for (size_t k = 0; k < vertices.size(); ++k) {
     const Triangle& tri = vertices[k];
     for (int c = 0; c < 3; ++c) {
       const uint32_t a = tri[c], b = tri[(c + 1) % 3];
       const Vec2 &uv_a = corner_uv[k][c], &uv_b = corner_uv[k][(c + 1) % 3];
+      // A vertex to itself at one point (two mesher's nodes of a pinch, one vertex in space, or a
+      // pole's copies merged): no edge, for triangles and chords alike.
+      if (a == b && glm::length(periodic_difference(g, uv_b - uv_a)) <= chain_tolerance) continue;
       EdgeUse& e = chain.use(a, b, 0.5 * (uv_a + uv_b));
       e.triangles += chain.sign(a, b, uv_a, uv_b);
       e.triangle = static_cast<uint32_t>(k);
     }
   }
-  for (const occt::BoundaryChord& c : f.chords)
+  for (const occt::BoundaryChord& c : f.chords) {
+    if (c.a == c.b && glm::length(periodic_difference(g, c.uv_b - c.uv_a)) <= chain_tolerance) continue;
     chain.use(c.a, c.b, 0.5 * (c.uv_a + c.uv_b)).chords += chain.sign(c.a, c.b, c.uv_a, c.uv_b);
+  }
   int global = 0;
   for (const auto& [key, list] : chain.uses()) {
     for (const EdgeUse& e : list) {
@@ -847,6 +871,20 @@ std::string tiling_reason(const Grid& g, const std::vector<Triangle>& vertices,
   chord_triangle.assign(f.chords.size(), 0);
   for (size_t k = 0; k < f.chords.size(); ++k) {
     const occt::BoundaryChord& c = f.chords[k];
+    if (c.a == c.b && glm::length(periodic_difference(g, c.uv_b - c.uv_a)) <= chain_tolerance) {
+      // A chord of no length: a triangle with that corner there (its curve is within the chord's
+      // deviation of that point).
+      bool found = false;
+      for (size_t t = 0; t < vertices.size() && !found; ++t) {
+        for (int i = 0; i < 3 && !found; ++i) {
+          found =
+              vertices[t][i] == c.a && glm::length(periodic_difference(g, corner_uv[t][i] - c.uv_a)) <= chain_tolerance;
+          if (found) chord_triangle[k] = static_cast<uint32_t>(t);
+        }
+      }
+      if (!found) return "a chord of no length has no triangle at its point";
+      continue;
+    }
     chord_triangle[k] = chain.use(c.a, c.b, 0.5 * (c.uv_a + c.uv_b)).triangle;
   }
   return "";
@@ -1613,10 +1651,12 @@ FaceCertificate certify_loop_face(const occt::PartMesh& part, int face, const st
   // The segment from c to a sliver point lies in the chord's deviation band (convex) and in the
   // face's rectangle (both ends do), so the speed bound is taken over the patches whose cells meet
   // the band's box. A tiling gap of rounding size between neighbours' corners costs the face's
-  // largest speed times 1e-12 of the range.
-  const double gap = (std::sqrt(gram.uu) + std::sqrt(gram.vv)) * 1e-12 * g.range();
+  // largest speed times 1e-12 of the range, and the flat triangles' reach (tiling_reason) its
+  // speed times that reach.
   std::vector<uint32_t> chord_triangle;
-  const std::string tiling = tiling_reason(g, vertices, corner_uv, chord_triangle);
+  double flat_reach = 0.0;
+  const std::string tiling = tiling_reason(g, vertices, corner_uv, chord_triangle, flat_reach);
+  const double gap = (std::sqrt(gram.uu) + std::sqrt(gram.vv)) * (1e-12 * g.range() + flat_reach);
   double face_upper = 0.0;
   for (const double u : upper) face_upper = std::max(face_upper, u + gap);
   bool deviations_proven = true;

@@ -23,29 +23,30 @@
 
 #include <BRepAdaptor_Curve.hxx>
 #include <BRepBndLib.hxx>
-#include <BRepMesh_IncrementalMesh.hxx>
-#include <Bnd_Box.hxx>
-#include <Poly_PolygonOnTriangulation.hxx>
-#include <Poly_Triangulation.hxx>
-#include <TopLoc_Location.hxx>
 #include <BRepCheck_Analyzer.hxx>
 #include <BRepGProp.hxx>
+#include <BRepMesh_IncrementalMesh.hxx>
 #include <BRepTools.hxx>
 #include <BRepTools_WireExplorer.hxx>
 #include <BRepTopAdaptor_FClass2d.hxx>
-#include <GeomAPI_ProjectPointOnCurve.hxx>
-#include <GeomAPI_ProjectPointOnSurf.hxx>
-#include <Geom_Curve.hxx>
 #include <BRep_Tool.hxx>
+#include <Bnd_Box.hxx>
 #include <GProp_GProps.hxx>
 #include <Geom2d_Curve.hxx>
+#include <GeomAPI_ProjectPointOnCurve.hxx>
+#include <GeomAPI_ProjectPointOnSurf.hxx>
 #include <Geom_BSplineSurface.hxx>
 #include <Geom_BezierSurface.hxx>
+#include <Geom_Curve.hxx>
 #include <Geom_RectangularTrimmedSurface.hxx>
 #include <Geom_Surface.hxx>
+#include <Poly_PolygonOnTriangulation.hxx>
+#include <Poly_Triangulation.hxx>
+#include <ShapeAnalysis_Surface.hxx>
 #include <Standard_Failure.hxx>
 #include <TopExp.hxx>
 #include <TopExp_Explorer.hxx>
+#include <TopLoc_Location.hxx>
 #include <TopTools_IndexedDataMapOfShapeListOfShape.hxx>
 #include <TopTools_IndexedMapOfShape.hxx>
 #include <TopTools_ListOfShape.hxx>
@@ -2464,15 +2465,25 @@ void edges_from_vertices(PartBuilder& b, const MeshOnShape& m, double part_size)
     std::vector<std::pair<double, uint32_t>> samples;
     const gp_Pnt p_first = curve->Value(first), p_last = curve->Value(last);
     GeomAPI_ProjectPointOnCurve projector;
+    // An end vertex (both ends of a closed edge) takes the end parameters exactly: the vertex nearest
+    // to each end, within tol. Others that near an end are samples like any (bug24595's MeshPart STL:
+    // an edge of tolerance 0.028 had two more vertices within 2x that of its end, taken as the end
+    // and dropped, so they lay on no face).
+    uint32_t at_first = std::numeric_limits<uint32_t>::max(), at_last = at_first;
+    double to_first = tol, to_last = tol;
     m.in_box(lo, hi, [&](uint32_t v) {
       const gp_Pnt p(m.position[v].x, m.position[v].y, m.position[v].z);
-      // An end vertex (both ends of a closed edge) takes the end parameters exactly.
-      const bool at_first = p.Distance(p_first) <= tol, at_last = p.Distance(p_last) <= tol;
-      if (at_first) samples.push_back({first, v});
-      if (at_last) samples.push_back({last, v});
-      if (at_first || at_last) return;
+      if (p.Distance(p_first) <= to_first) to_first = p.Distance(p_first), at_first = v;
+      if (p.Distance(p_last) <= to_last) to_last = p.Distance(p_last), at_last = v;
+    });
+    m.in_box(lo, hi, [&](uint32_t v) {
+      const gp_Pnt p(m.position[v].x, m.position[v].y, m.position[v].z);
+      if (v == at_first) samples.push_back({first, v});
+      if (v == at_last) samples.push_back({last, v});
+      if (v == at_first || v == at_last) return;
       projector.Init(p, curve, first, last);
-      if (projector.NbPoints() > 0 && projector.LowerDistance() <= tol) samples.push_back({projector.LowerDistanceParameter(), v});
+      if (projector.NbPoints() > 0 && projector.LowerDistance() <= tol)
+        samples.push_back({projector.LowerDistanceParameter(), v});
     });
     std::sort(samples.begin(), samples.end());
     for (const auto& [t, v] : samples) {
@@ -2486,57 +2497,87 @@ void edges_from_vertices(PartBuilder& b, const MeshOnShape& m, double part_size)
   }
 }
 
-// Each vertex's faces and (u, v): on an edge of the face, the p-curve at its edge parameter; else the
-// projection on the face's surface, when within tolerance and inside the face.
+// The vertices on face f and their (u, v) (m.on_faces): on an edge of the face, the p-curve at its
+// edge parameter; else the projection on the face's surface, when within tolerance and inside the
+// face. With `orphans`, only those vertices, projected by ShapeAnalysis_Surface instead of
+// GeomAPI_ProjectPointOnSurf.
+void vertices_on_face(PartBuilder& b, MeshOnShape& m, double part_size, int f, const std::vector<char>* orphans) {
+  const FaceGeometry& g = b.geometry[static_cast<size_t>(f)];
+  if (g.patches.empty()) return;
+  const TopoDS_Face& face = g.face;
+  std::unordered_map<uint32_t, Vec2> on_edges;
+  for (TopExp_Explorer it(face, TopAbs_EDGE); it.More(); it.Next()) {
+    const TopoDS_Edge edge = TopoDS::Edge(it.Current());
+    const int e = b.x.edges.FindIndex(edge) - 1;
+    if (e < 0 || b.edges[static_cast<size_t>(e)].t.size() < 2) continue;
+    const EdgeSamples& s = b.edges[static_cast<size_t>(e)];
+    RangeCurve rc;
+    rc.pc = BRep_Tool::CurveOnSurface(edge, face, rc.f, rc.l);
+    if (rc.pc.IsNull()) continue;
+    rc.same = BRep_Tool::SameParameter(edge) && BRep_Tool::SameRange(edge);
+    BRep_Tool::Range(edge, rc.first, rc.last);
+    for (size_t k = 0; k < s.t.size(); ++k) {
+      const gp_Pnt2d q = rc.pc->Value(rc.param(s.t[k]));
+      on_edges.emplace(s.vertex[k], Vec2(q.X(), q.Y()));
+    }
+  }
+  double u0, u1, v0, v1;
+  BRepTools::UVBounds(face, u0, u1, v0, v1);
+  const double tol = on_tolerance(part_size, BRep_Tool::Tolerance(face));
+  Vec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  for (const BezierPatch& p : g.patches) {
+    const Box box = control_box(p);
+    lo = glm::min(lo, box.lo), hi = glm::max(hi, box.hi);
+  }
+  lo -= Vec3(tol), hi += Vec3(tol);
+  const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);
+  GeomAPI_ProjectPointOnSurf projector;
+  Handle(ShapeAnalysis_Surface) analysis;
+  BRepTopAdaptor_FClass2d classifier(face, 1e-9 * std::max(u1 - u0, v1 - v0));
+  const auto into_range = [](double x, double lo_, double period) {
+    return period > 0.0 ? lo_ + std::fmod(std::fmod(x - lo_, period) + period, period) : x;
+  };
+  m.in_box(lo, hi, [&](uint32_t v) {
+    if (orphans && !(*orphans)[v]) return;
+    const auto edge_uv = on_edges.find(v);
+    if (edge_uv != on_edges.end()) return m.on_faces[v].push_back({f, edge_uv->second});
+    const gp_Pnt p(m.position[v].x, m.position[v].y, m.position[v].z);
+    double u = 0.0, w = 0.0;
+    if (orphans) {
+      if (analysis.IsNull()) {
+        analysis = new ShapeAnalysis_Surface(surface);
+        analysis->SetDomain(u0, u1, v0, v1);
+      }
+      const gp_Pnt2d q = analysis->ValueOfUV(p, tol);
+      if (!(analysis->Gap() <= tol)) return;
+      u = q.X(), w = q.Y();
+    } else {
+      projector.Init(p, surface, u0, u1, v0, v1);
+      if (projector.NbPoints() == 0 || !(projector.LowerDistance() <= tol)) return;
+      projector.LowerDistanceParameters(u, w);
+    }
+    u = into_range(u, u0 - 1e-9 * g.u_period, g.u_period), w = into_range(w, v0 - 1e-9 * g.v_period, g.v_period);
+    if (classifier.Perform(gp_Pnt2d(u, w)) == TopAbs_IN) m.on_faces[v].push_back({f, Vec2(u, w)});
+  });
+}
+
+// Each vertex's faces and (u, v) (vertices_on_face). OCCT's extrema can miss the nearest point of a
+// B-spline surface (bottle.brep's Face 4: a mesh vertex 4.5e-7 off it, well inside the face, whose
+// nearest point found was 0.0147 away), so a vertex left on no face is projected again by
+// ShapeAnalysis_Surface, which starts from its own sampling of the surface.
 void faces_from_vertices(PartBuilder& b, MeshOnShape& m, double part_size) {
   m.on_faces.assign(m.position.size(), {});
   for (int f = 0; f < b.x.faces.Extent(); ++f) {
     budget::check("finding the mesh's vertices on the part's faces");
-    const FaceGeometry& g = b.geometry[static_cast<size_t>(f)];
-    if (g.patches.empty()) continue;
-    const TopoDS_Face& face = g.face;
-    std::unordered_map<uint32_t, Vec2> on_edges;
-    for (TopExp_Explorer it(face, TopAbs_EDGE); it.More(); it.Next()) {
-      const TopoDS_Edge edge = TopoDS::Edge(it.Current());
-      const int e = b.x.edges.FindIndex(edge) - 1;
-      if (e < 0 || b.edges[static_cast<size_t>(e)].t.size() < 2) continue;
-      const EdgeSamples& s = b.edges[static_cast<size_t>(e)];
-      RangeCurve rc;
-      rc.pc = BRep_Tool::CurveOnSurface(edge, face, rc.f, rc.l);
-      if (rc.pc.IsNull()) continue;
-      rc.same = BRep_Tool::SameParameter(edge) && BRep_Tool::SameRange(edge);
-      BRep_Tool::Range(edge, rc.first, rc.last);
-      for (size_t k = 0; k < s.t.size(); ++k) {
-        const gp_Pnt2d q = rc.pc->Value(rc.param(s.t[k]));
-        on_edges.emplace(s.vertex[k], Vec2(q.X(), q.Y()));
-      }
-    }
-    double u0, u1, v0, v1;
-    BRepTools::UVBounds(face, u0, u1, v0, v1);
-    const double tol = on_tolerance(part_size, BRep_Tool::Tolerance(face));
-    Vec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-    for (const BezierPatch& p : g.patches) {
-      const Box box = control_box(p);
-      lo = glm::min(lo, box.lo), hi = glm::max(hi, box.hi);
-    }
-    lo -= Vec3(tol), hi += Vec3(tol);
-    const Handle(Geom_Surface) surface = BRep_Tool::Surface(face);
-    GeomAPI_ProjectPointOnSurf projector;
-    BRepTopAdaptor_FClass2d classifier(face, 1e-9 * std::max(u1 - u0, v1 - v0));
-    const auto into_range = [](double x, double lo_, double period) {
-      return period > 0.0 ? lo_ + std::fmod(std::fmod(x - lo_, period) + period, period) : x;
-    };
-    m.in_box(lo, hi, [&](uint32_t v) {
-      const auto edge_uv = on_edges.find(v);
-      if (edge_uv != on_edges.end()) return m.on_faces[v].push_back({f, edge_uv->second});
-      const gp_Pnt p(m.position[v].x, m.position[v].y, m.position[v].z);
-      projector.Init(p, surface, u0, u1, v0, v1);
-      if (projector.NbPoints() == 0 || !(projector.LowerDistance() <= tol)) return;
-      double u = 0.0, w = 0.0;
-      projector.LowerDistanceParameters(u, w);
-      u = into_range(u, u0 - 1e-9 * g.u_period, g.u_period), w = into_range(w, v0 - 1e-9 * g.v_period, g.v_period);
-      if (classifier.Perform(gp_Pnt2d(u, w)) == TopAbs_IN) m.on_faces[v].push_back({f, Vec2(u, w)});
-    });
+    vertices_on_face(b, m, part_size, f, nullptr);
+  }
+  std::vector<char> orphans(m.position.size(), 0);
+  bool any = false;
+  for (size_t v = 0; v < orphans.size(); ++v) any = (orphans[v] = m.on_faces[v].empty() ? 1 : 0) || any;
+  if (!any) return;
+  for (int f = 0; f < b.x.faces.Extent(); ++f) {
+    budget::check("finding the mesh's vertices on the part's faces");
+    vertices_on_face(b, m, part_size, f, &orphans);
   }
 }
 

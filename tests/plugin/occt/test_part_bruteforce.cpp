@@ -16,6 +16,7 @@
 
 #include <glm/vec3.hpp>
 
+#include <BRepAlgoAPI_Cut.hxx>
 #include <BRepBndLib.hxx>
 #include <BRepBuilderAPI_Copy.hxx>
 #include <BRepBuilderAPI_MakeEdge.hxx>
@@ -24,6 +25,7 @@
 #include <BRepBuilderAPI_MakeWire.hxx>
 #include <BRepClass_FaceClassifier.hxx>
 #include <BRepExtrema_DistShapeShape.hxx>
+#include <BRepPrimAPI_MakeBox.hxx>
 #include <BRepPrimAPI_MakeCylinder.hxx>
 #include <BRepPrimAPI_MakeRevol.hxx>
 #include <BRepPrimAPI_MakeSphere.hxx>
@@ -38,6 +40,7 @@
 #include <Geom_OffsetSurface.hxx>
 #include <Geom_Surface.hxx>
 #include <Precision.hxx>
+#include <STEPControl_Writer.hxx>
 #include <TColgp_HArray1OfPnt.hxx>
 #include <TopExp.hxx>
 #include <TopExp_Explorer.hxx>
@@ -49,6 +52,7 @@
 #include <TopoDS_Vertex.hxx>
 #include <TopoDS_Wire.hxx>
 #include <gp_Ax1.hxx>
+#include <gp_Ax2.hxx>
 
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
@@ -580,20 +584,20 @@ Tessellation as_stl(const Tessellation& mesh) {
   return stl;
 }
 
-// A part meshed by BRepMesh at 1e-2 of its diagonal and certified, and the same triangles read back
-// from an STL (as_stl) and certified: every face of the STL is expected certified, no triangle left
-// on no face, and its bound that of BRepMesh's own mesh (float coordinates move the vertices by up
-// to 1e-5 of the part).
+// A part meshed by BRepMesh at 1e-2 of its diagonal (or at `deflection`) and certified, and the same triangles read
+// back from an STL (as_stl) and certified: every face of the STL is expected certified, no triangle left on no face,
+// and its bound that of BRepMesh's own mesh (float coordinates move the vertices by up to 1e-5 of the part).
 struct StlRoundTrip {
   OcctPart occt_part;
   occt::PartMesh part;  // the STL on the part
   app::PartCertificate cert;
 };
 
-StlRoundTrip expect_stl_certified_as_brepmesh(const std::string& path) {
+StlRoundTrip expect_stl_certified_as_brepmesh(const std::string& path, double deflection = 0.0) {
   StlRoundTrip r;
   r.occt_part = read_part(path);
-  const occt::PartMesh b = brepmesh(path, r.occt_part.diagonal);
+  const occt::PartMesh b = deflection > 0.0 ? occt::brepmesh_part_file(path, occt::BRepMeshOptions{deflection, 0.5})
+                                            : brepmesh(path, r.occt_part.diagonal);
   const app::PartCertificate own = app::certify_part(b);
   EXPECT_TRUE(own.all_certified) << path;
   r.part = occt::mesh_on_part_file(path, as_stl(b.mesh), "its STL");
@@ -631,6 +635,60 @@ TEST(PartBruteForceStl, PinsInHolesAreCertifiedOnEveryFace) {
   SAGITTA_REQUIRE_DATA(path);
   const StlRoundTrip r = expect_stl_certified_as_brepmesh(path);
   EXPECT_EQ(r.cert.faces_certified, 160);
+}
+
+// pr1ct's two half cones end at their apex (in a circle of radius 4e-11, an edge for OCCT).
+// BRepMesh fans the apex with a triangle along a generator: the apex and two nodes of one line, no
+// area in 3D. Read back from an STL, its (U, V) corners are three points of one meridian, and
+// rounding gave the line an orientation opposite to the others' ("the triangles fold over in (U,
+// V)": 13 of 15 faces certified). A triangle flat in (U, V) up to rounding now has no orientation;
+// the boundary chain still checks it.
+TEST(PartBruteForceStl, TriangleAlongAConesGeneratorIsFlatNotFolded) {
+  const std::string path = shared_data("cad/step/pr1ct.stp");
+  SAGITTA_REQUIRE_DATA(path);
+  const StlRoundTrip r = expect_stl_certified_as_brepmesh(path);
+  const BruteForce brute = expect_bounds_hold(r.occt_part, r.part, r.cert, "pr1ct STL");
+  EXPECT_EQ(brute.faces_checked, 15);
+}
+
+// bottle.brep's Face 4 (a B-spline of the thread): one vertex of BRepMesh's STL lies 4.5e-7 off that
+// surface, well inside the face, but OCCT's extrema found its nearest point 0.0147 away, so the
+// vertex was on no face: 5 triangles on no single face, 5 cracks, 70 of 71 faces certified. A
+// vertex on no face is now projected again (ShapeAnalysis_Surface).
+TEST(PartBruteForceStl, VertexMissedByOcctsExtremaIsFoundOnItsFace) {
+  const std::string path = shared_data("cad/bottle.brep");
+  SAGITTA_REQUIRE_DATA(path);
+  // 1e-2 of the diagonal of the part's exact box (`sagitta peer occt` with --deflection 0.939415).
+  const StlRoundTrip r = expect_stl_certified_as_brepmesh(path, 0.939415);
+  EXPECT_EQ(app::validate_part(r.part).crack_edges, 0u);
+  const BruteForce brute = expect_bounds_hold(r.occt_part, r.part, r.cert, "bottle STL");
+  EXPECT_EQ(brute.faces_checked, 71);
+}
+
+// Two holes tangent to each other in a plate, written as STEP and read back: each plane's loops
+// touch themselves at the point where the circles meet, one vertex (tolerance 2.8e-5). BRepMesh
+// puts a node of each circle there, one mesh vertex in space, and a triangle between them has two
+// corners at one (U, V) point: "a triangle is degenerate in (U, V)" on both planes (the same shape
+// kept as BREP is meshed without that triangle). Such a triangle is flat now, and its edge from
+// the vertex to itself at one point is no edge of the chain; the planes are certified and the
+// bounds hold.
+TEST(PartBruteForceFlat, HolesTangentToEachOtherAreCertified) {
+  TopoDS_Shape plate = BRepPrimAPI_MakeBox(80.0, 40.0, 10.0).Shape();
+  for (const double x : {20.0, 36.0}) {
+    const gp_Ax2 axis(gp_Pnt(x, 20.0, -5.0), gp_Dir(0, 0, 1));
+    plate = BRepAlgoAPI_Cut(plate, BRepPrimAPI_MakeCylinder(axis, 8.0, 20.0).Shape()).Shape();
+  }
+  const std::string path = testing::TempDir() + "/sagitta_tangent_holes.step";
+  STEPControl_Writer writer;
+  ASSERT_EQ(writer.Transfer(plate, STEPControl_AsIs), IFSelect_RetDone);
+  ASSERT_EQ(writer.Write(path.c_str()), IFSelect_RetDone);
+  const OcctPart occt_part = read_part(path);
+  const occt::PartMesh part = brepmesh(path, occt_part.diagonal);
+  const app::PartCertificate cert = app::certify_part(part);
+  for (const app::FaceCertificate& f : cert.faces)
+    EXPECT_TRUE(f.certified) << part.faces[static_cast<size_t>(f.face)].name << ": " << f.reason;
+  const BruteForce brute = expect_bounds_hold(occt_part, part, cert, "tangent holes");
+  EXPECT_EQ(brute.faces_checked, static_cast<int>(part.faces.size()));
 }
 
 // A torus's one vertex is the corner of its (U, V) domain, where both seams meet: four copies, and a
