@@ -832,14 +832,14 @@ std::string tiling_reason(const Grid& g, const std::vector<Triangle>& vertices,
       const Vec2 &uv_a = corner_uv[k][c], &uv_b = corner_uv[k][(c + 1) % 3];
       // A vertex to itself at one point (two mesher's nodes of a pinch, one vertex in space, or a
       // pole's copies merged): no edge, for triangles and chords alike.
-      if (a == b && glm::length(periodic_difference(g, uv_b - uv_a)) <= chain_tolerance) continue;
+      if (a == b && glm::length(uv_b - uv_a) <= chain_tolerance) continue;
       EdgeUse& e = chain.use(a, b, 0.5 * (uv_a + uv_b));
       e.triangles += chain.sign(a, b, uv_a, uv_b);
       e.triangle = static_cast<uint32_t>(k);
     }
   }
   for (const occt::BoundaryChord& c : f.chords) {
-    if (c.a == c.b && glm::length(periodic_difference(g, c.uv_b - c.uv_a)) <= chain_tolerance) continue;
+    if (c.a == c.b && glm::length(c.uv_b - c.uv_a) <= chain_tolerance) continue;
     chain.use(c.a, c.b, 0.5 * (c.uv_a + c.uv_b)).chords += chain.sign(c.a, c.b, c.uv_a, c.uv_b);
   }
   int global = 0;
@@ -871,7 +871,7 @@ std::string tiling_reason(const Grid& g, const std::vector<Triangle>& vertices,
   chord_triangle.assign(f.chords.size(), 0);
   for (size_t k = 0; k < f.chords.size(); ++k) {
     const occt::BoundaryChord& c = f.chords[k];
-    if (c.a == c.b && glm::length(periodic_difference(g, c.uv_b - c.uv_a)) <= chain_tolerance) {
+    if (c.a == c.b && glm::length(c.uv_b - c.uv_a) <= chain_tolerance) {
       // A chord of no length: a triangle with that corner there (its curve is within the chord's
       // deviation of that point).
       bool found = false;

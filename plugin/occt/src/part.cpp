@@ -2412,6 +2412,9 @@ struct MeshOnShape {
   std::vector<std::vector<VertexOnFace>> on_faces;   // per vertex
   std::vector<std::vector<std::array<uint32_t, 3>>> face_triangles;  // per face
   uint64_t unassigned = 0;  // triangles whose corners share no face
+  // How far the positions may lie from the mesher's points by rounding to float (an STL): 0 when a
+  // coordinate is not a float. Added to every tolerance for finding vertices on edges and faces.
+  double rounding = 0.0;
 
   // Vertices inside the box [lo, hi].
   template <typename F>
@@ -2445,7 +2448,7 @@ void edges_from_vertices(PartBuilder& b, const MeshOnShape& m, double part_size)
       TopExp::Vertices(edge, v0, v1);
       if (v0.IsNull()) continue;
       const gp_Pnt pole = BRep_Tool::Pnt(v0);
-      const double tol = on_tolerance(part_size, BRep_Tool::Tolerance(v0));
+      const double tol = on_tolerance(part_size, BRep_Tool::Tolerance(v0)) + m.rounding;
       double first = 0.0, last = 0.0, nearest = tol;
       BRep_Tool::Range(edge, first, last);
       m.in_box(Vec3(pole.X(), pole.Y(), pole.Z()) - Vec3(tol), Vec3(pole.X(), pole.Y(), pole.Z()) + Vec3(tol), [&](uint32_t v) {
@@ -2457,7 +2460,7 @@ void edges_from_vertices(PartBuilder& b, const MeshOnShape& m, double part_size)
     double first = 0.0, last = 0.0;
     const Handle(Geom_Curve) curve = BRep_Tool::Curve(edge, first, last);  // location applied
     if (curve.IsNull()) continue;
-    const double tol = on_tolerance(part_size, BRep_Tool::Tolerance(edge));
+    const double tol = on_tolerance(part_size, BRep_Tool::Tolerance(edge)) + m.rounding;
     Bnd_Box box;
     BRepBndLib::Add(edge, box);
     box.Enlarge(tol);
@@ -2523,7 +2526,7 @@ void vertices_on_face(PartBuilder& b, MeshOnShape& m, double part_size, int f, c
   }
   double u0, u1, v0, v1;
   BRepTools::UVBounds(face, u0, u1, v0, v1);
-  const double tol = on_tolerance(part_size, BRep_Tool::Tolerance(face));
+  const double tol = on_tolerance(part_size, BRep_Tool::Tolerance(face)) + m.rounding;
   Vec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
   for (const BezierPatch& p : g.patches) {
     const Box box = control_box(p);
@@ -2672,7 +2675,7 @@ bool take_mesh_face(PartBuilder& b, const MeshOnShape& m, const FaceGeometry& g,
     BRep_Tool::Range(edge, first, last);
     if (s.t.size() < 2 || s.t.front() != first || s.t.back() != last) {
       pf.reason = "edge " + std::to_string(e + 1) + " has no mesh vertex at one of its ends (within " +
-                  std::to_string(on_tolerance(part_size, BRep_Tool::Tolerance(edge))) + " of the edge)";
+                  std::to_string(on_tolerance(part_size, BRep_Tool::Tolerance(edge)) + m.rounding) + " of the edge)";
       return false;
     }
   }
@@ -2761,6 +2764,17 @@ PartMesh mesh_on_shape(const TopoDS_Shape& shape, const std::string& name, const
         }
         for (uint32_t v = 0; v < b.out.mesh.positions.size(); ++v) b.vertex_tolerance[v] = 1e-9 * part_size;
         m.position = b.out.mesh.positions;
+        // Float coordinates (an STL) are each within 2^-24 of the mesher's (0.06 at 1e6: far_filleted's
+        // vertices were off their faces by more than the faces' tolerance).
+        bool floats = true;
+        double largest = 0.0;
+        for (const Vec3& p : m.position) {
+          for (int k = 0; k < 3; ++k) {
+            floats = floats && static_cast<double>(static_cast<float>(p[k])) == p[k];
+            largest = std::max(largest, std::abs(p[k]));
+          }
+        }
+        m.rounding = floats ? std::sqrt(3.0) * std::ldexp(largest, -24) * (1.0 + 1e-6) : 0.0;
         m.by_x.resize(m.position.size());
         for (uint32_t v = 0; v < m.by_x.size(); ++v) m.by_x[v] = v;
         std::sort(m.by_x.begin(), m.by_x.end(), [&](uint32_t a, uint32_t c) { return m.position[a].x < m.position[c].x; });

@@ -876,13 +876,12 @@ TEST(AppPart, BRepMeshFansAtAPoleAreBoundedTightly) {
   }
 }
 
-// A whole torus (FreeCAD fixture): its one face is periodic both ways, and at 1 segment per side with
-// the fit's fine edges its triangles did not tile its domain (the four corners of (U, V) are one
-// vertex; a triangle's edge from that vertex to itself at one point counted in the chain). The fit
-// stopped there ("cannot be certified": no face was certified at the first step); such a reason
-// depends on the mesh, and the fit now goes on to the N that meets the target. Since such edges are
-// no edges (tiling_reason), that step tiles: the first mesh here has one triangle turned over, the
-// same kind of reason.
+// A whole torus (FreeCAD fixture): its one face is periodic both ways, so at 1 segment per side with
+// the fit's fine edges its triangles do not tile its domain (the four corners of (U, V) are one
+// vertex). The fit stopped there ("cannot be certified": no face was certified at the first step);
+// such a reason depends on the mesh, and the fit now goes on to the N that meets the target. The
+// first mesh also has one triangle turned over (the same kind of reason), so that the test keeps
+// checking this should the torus's first step come to tile.
 TEST(AppPart, FitOfAWholeTorusGoesPastAnUntiledFirstStep) {
   const std::string dir = SAGITTA_CAD_FIXTURE_DIR;
   if (dir.empty()) GTEST_SKIP() << "no FreeCAD fixtures (freecadcmd missing)";
