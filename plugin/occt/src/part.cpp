@@ -2764,17 +2764,25 @@ PartMesh mesh_on_shape(const TopoDS_Shape& shape, const std::string& name, const
         }
         for (uint32_t v = 0; v < b.out.mesh.positions.size(); ++v) b.vertex_tolerance[v] = 1e-9 * part_size;
         m.position = b.out.mesh.positions;
-        // Float coordinates (an STL) are each within 2^-24 of the mesher's (0.06 at 1e6: far_filleted's
-        // vertices were off their faces by more than the faces' tolerance).
+        // Float coordinates (an STL): each is within half the gap to the next float above it of the
+        // mesher's (0.03 at 1e6: far_filleted's vertices were off their faces by more than the faces'
+        // tolerance). Rounded to nearest, a float f came from within half the larger of its two gaps,
+        // which is the gap above |f|.
         bool floats = true;
         double largest = 0.0;
         for (const Vec3& p : m.position) {
+          double squared = 0.0;
           for (int k = 0; k < 3; ++k) {
+            const float f = std::abs(static_cast<float>(p[k]));
             floats = floats && static_cast<double>(static_cast<float>(p[k])) == p[k];
-            largest = std::max(largest, std::abs(p[k]));
+            const double half_gap =
+                0.5 * (static_cast<double>(std::nextafter(f, std::numeric_limits<float>::infinity())) - f);
+            squared += half_gap * half_gap;
           }
+          largest = std::max(largest, std::sqrt(squared));
         }
-        m.rounding = floats ? std::sqrt(3.0) * std::ldexp(largest, -24) * (1.0 + 1e-6) : 0.0;
+        // Only where vertices are looked for: the certificate measures each vertex's own distance.
+        m.rounding = floats && std::isfinite(largest) ? largest * (1.0 + 1e-6) : 0.0;
         m.by_x.resize(m.position.size());
         for (uint32_t v = 0; v < m.by_x.size(); ++v) m.by_x[v] = v;
         std::sort(m.by_x.begin(), m.by_x.end(), [&](uint32_t a, uint32_t c) { return m.position[a].x < m.position[c].x; });
