@@ -2017,20 +2017,31 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
 // shared edge's nodes the same 3D points on both faces, a seam's two copies and a pole's nodes too.
 class NodeIndex {
  public:
-  explicit NodeIndex(PartBuilder& b) : b_(b) {}
+  static constexpr uint32_t kUnset = std::numeric_limits<uint32_t>::max();
+  explicit NodeIndex(PartBuilder& b) : b_(b), corners_(static_cast<size_t>(b.x.vertices.Extent()), kUnset) {}
   uint32_t vertex(const Vec3& p) {
-    Key k;
-    std::memcpy(&k[0], &p.x, 8), std::memcpy(&k[1], &p.y, 8), std::memcpy(&k[2], &p.z, 8);
-    const auto it = index_.find(k);
+    const auto it = index_.find(key(p));
     if (it != index_.end()) return it->second;
     const uint32_t v = b_.add_vertex(p);
-    index_.emplace(k, v);
+    index_.emplace(key(p), v);
     return v;
   }
+  // Nodes at p are vertex v from now on, unless p already has a vertex (a node taken by another
+  // face's sample of its edge: the other nodes of this face at the same point, a pole's, follow it).
+  void alias(const Vec3& p, uint32_t v) { index_.emplace(key(p), v); }
+  // The mesh vertex of the B-rep's vertex c (an index of ShapeIndex::vertices), or kUnset.
+  uint32_t at_corner(int c) const { return corners_[static_cast<size_t>(c)]; }
+  void set_corner(int c, uint32_t v) { corners_[static_cast<size_t>(c)] = v; }
 
  private:
   using Key = std::array<uint64_t, 3>;
+  static Key key(const Vec3& p) {
+    Key k;
+    std::memcpy(&k[0], &p.x, 8), std::memcpy(&k[1], &p.y, 8), std::memcpy(&k[2], &p.z, 8);
+    return k;
+  }
   PartBuilder& b_;
+  std::vector<uint32_t> corners_;  // per B-rep vertex
   std::map<Key, uint32_t> index_;
 };
 
@@ -2265,8 +2276,55 @@ bool brepmesh_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, Part
     return false;
   }
   const gp_Trsf trsf = loc.Transformation();
-  std::vector<uint32_t> id(static_cast<size_t>(tri->NbNodes()) + 1);
-  for (int n = 1; n <= tri->NbNodes(); ++n) id[n] = nodes.vertex(to_vec(tri->Node(n).Transformed(trsf)));
+  constexpr uint32_t kUnset = NodeIndex::kUnset;
+  std::vector<uint32_t> id(static_cast<size_t>(tri->NbNodes()) + 1, kUnset);
+  // BRepMesh evaluates each face's nodes itself: on faces sewn from an IGES file the two sides' points
+  // of one edge differ in their last bits (FreeCAD's IGES exports: "cracks 132" on a closed mesh), so
+  // nodes are merged by topology before position. A node at a B-rep vertex (an edge's end, every node
+  // of a degenerated edge) is that vertex's mesh vertex, whichever face met it first; a node inside an
+  // edge that a face before this one (or this face's other side of a seam) sampled at the same
+  // parameter is that sample's vertex; each within the vertex's or edge's tolerance.
+  for (TopExp_Explorer it(g.face, TopAbs_EDGE); it.More(); it.Next()) {
+    const TopoDS_Edge edge = TopoDS::Edge(it.Current());
+    const int e = b.x.edges.FindIndex(edge) - 1;
+    if (e < 0) continue;
+    const Handle(Poly_PolygonOnTriangulation) poly = BRep_Tool::PolygonOnTriangulation(edge, tri, loc);
+    if (poly.IsNull() || !poly->HasParameters()) continue;
+    TopoDS_Vertex first_vertex, last_vertex;
+    TopExp::Vertices(edge, first_vertex, last_vertex);
+    double first = 0.0, last = 0.0;
+    BRep_Tool::Range(edge, first, last);
+    const bool degenerated = BRep_Tool::Degenerated(edge);
+    const EdgeSamples& before = b.edges[e];
+    for (int k = 1; k <= poly->NbNodes(); ++k) {
+      const int n = poly->Node(k);
+      if (id[n] != kUnset) continue;
+      const double t = poly->Parameter(k);
+      const Vec3 p = to_vec(tri->Node(n).Transformed(trsf));
+      const TopoDS_Vertex& corner = degenerated || t == first ? first_vertex
+                                    : t == last               ? last_vertex
+                                                              : TopoDS_Vertex();
+      const int c = corner.IsNull() ? -1 : b.x.vertices.FindIndex(corner) - 1;
+      if (c >= 0) {
+        const uint32_t v = nodes.at_corner(c);
+        if (v == kUnset) {
+          id[n] = nodes.vertex(p);
+          nodes.set_corner(c, id[n]);
+        } else if (glm::length(b.out.mesh.positions[v] - p) <=
+                   std::max(BRep_Tool::Tolerance(corner), BRep_Tool::Tolerance(edge))) {
+          id[n] = v, nodes.alias(p, v);
+        }
+        continue;
+      }
+      const auto at = std::lower_bound(before.t.begin(), before.t.end(), t);
+      if (at == before.t.end() || *at != t) continue;
+      const uint32_t v = before.vertex[static_cast<size_t>(at - before.t.begin())];
+      if (glm::length(b.out.mesh.positions[v] - p) <= BRep_Tool::Tolerance(edge)) id[n] = v, nodes.alias(p, v);
+    }
+  }
+  for (int n = 1; n <= tri->NbNodes(); ++n) {
+    if (id[n] == kUnset) id[n] = nodes.vertex(to_vec(tri->Node(n).Transformed(trsf)));
+  }
   for (TopExp_Explorer it(g.face, TopAbs_EDGE); it.More(); it.Next()) {
     const TopoDS_Edge edge = TopoDS::Edge(it.Current());
     const int e = b.x.edges.FindIndex(edge) - 1;
@@ -2292,8 +2350,8 @@ bool brepmesh_face(PartBuilder& b, NodeIndex& nodes, const FaceGeometry& g, Part
       poles.push_back(edge);
     b.edges[e] = std::move(s);
   }
-  for (uint32_t v : id) {
-    if (b.vertex_tolerance[v] == 0.0) b.vertex_tolerance[v] = 1e-9 * part_size;
+  for (int n = 1; n <= tri->NbNodes(); ++n) {
+    if (b.vertex_tolerance[id[n]] == 0.0) b.vertex_tolerance[id[n]] = 1e-9 * part_size;
   }
   std::vector<std::array<uint32_t, 3>> tris;
   std::vector<std::array<Vec2, 3>> raw;

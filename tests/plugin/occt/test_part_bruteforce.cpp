@@ -18,6 +18,7 @@
 #include <glm/vec3.hpp>
 
 #include <BRepAlgoAPI_Cut.hxx>
+#include <BRepAlgoAPI_Fuse.hxx>
 #include <BRepBndLib.hxx>
 #include <BRepBuilderAPI_Copy.hxx>
 #include <BRepBuilderAPI_MakeEdge.hxx>
@@ -41,6 +42,7 @@
 #include <Geom_CylindricalSurface.hxx>
 #include <Geom_OffsetSurface.hxx>
 #include <Geom_Surface.hxx>
+#include <IGESControl_Writer.hxx>
 #include <Precision.hxx>
 #include <STEPControl_Writer.hxx>
 #include <TColgp_HArray1OfPnt.hxx>
@@ -693,6 +695,33 @@ TEST(PartBruteForceStl, FloatCoordinatesFarFromTheOriginAreFoundOnTheirFaces) {
     EXPECT_TRUE(f.certified) << part.faces[static_cast<size_t>(f.face)].name << ": " << f.reason;
   const BruteForce brute = expect_bounds_hold(occt_part, part, cert, "far cylinder STL");
   EXPECT_EQ(brute.faces_checked, 3);
+}
+
+// Two cylinders of one radius fused in a tee, written as IGES (free faces, as FreeCAD exports it) and
+// read back sewn: BRepMesh evaluates each face's nodes itself, and the two sides' nodes of a shared
+// edge differed in their last bits, so the mesh vertices merged by exact position left every
+// shared edge split ("cracks 132" from `peer occt` on a mesh that is closed). Nodes are merged by
+// topology first now: a node at a B-rep vertex is that vertex's mesh vertex, and a node inside an
+// edge at a parameter where another face already has a sample is that sample's vertex.
+TEST(PartBruteForceIges, BRepMeshOfSewnFacesIsClosed) {
+  const TopoDS_Shape upright = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(0, 0, -30), gp_Dir(0, 0, 1)), 10.0, 60.0).Shape();
+  const TopoDS_Shape across = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(-30, 0, 0), gp_Dir(1, 0, 0)), 10.0, 60.0).Shape();
+  const TopoDS_Shape tee = BRepAlgoAPI_Fuse(upright, across).Shape();
+  const std::string path = testing::TempDir() + "/sagitta_equal_tee.igs";
+  IGESControl_Writer writer("MM", 0);
+  ASSERT_TRUE(writer.AddShape(tee));
+  writer.ComputeModel();
+  ASSERT_TRUE(writer.Write(path.c_str()));
+  const OcctPart occt_part = read_part(path);
+  const occt::PartMesh part = brepmesh(path, occt_part.diagonal);
+  const app::PartValidation checks = app::validate_part(part);
+  EXPECT_EQ(checks.crack_edges, 0u);
+  EXPECT_EQ(checks.model_boundary_edges, 0u);
+  const app::PartCertificate cert = app::certify_part(part);
+  for (const app::FaceCertificate& f : cert.faces)
+    EXPECT_TRUE(f.certified) << part.faces[static_cast<size_t>(f.face)].name << ": " << f.reason;
+  const BruteForce brute = expect_bounds_hold(occt_part, part, cert, "equal tee IGES");
+  EXPECT_EQ(brute.faces_checked, static_cast<int>(part.faces.size()));
 }
 
 // Two holes tangent to each other in a plate, written as STEP and read back: each plane's loops
