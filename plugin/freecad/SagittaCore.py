@@ -192,8 +192,12 @@ def part_brep_text(links):
         else:
             shapes.append(shape)
     if len(shapes) == 1:
-        return shapes[0].exportBrepToString()
-    return Part.makeCompound([s.copy() for s in shapes]).exportBrepToString()
+        text = shapes[0].exportBrepToString()
+    else:
+        text = Part.makeCompound([s.copy() for s in shapes]).exportBrepToString()
+    # Free faces (FreeCAD imports an IGES file as a compound of them) are sewn as the CLI sews an
+    # IGES file, in their order: one closed mesh where they meet. Any other shape's text is unchanged.
+    return _sagitta.sew_free_faces_brep(text, "selection")
 
 
 def part_parameters(params):

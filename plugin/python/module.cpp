@@ -601,6 +601,15 @@ void bind_part(py::module_& m) {
       "Every face of a .step/.iges/.brep file in one mesh, watertight across faces (uniform: level or segments; "
       "esc: level and threshold)");
   m.def(
+      "sew_free_faces_brep",
+      [](const std::string& text, const std::string& name) {
+        py::gil_scoped_release release;
+        return occt::sew_free_faces_brep_string(text, name);
+      },
+      py::arg("brep_text"), py::arg("name"),
+      "A compound of free faces (FreeCAD's import of an IGES file) sewn as the CLI sews an IGES file, in "
+      "the same face order, as BREP text; any other shape's text unchanged");
+  m.def(
       "mesh_part_brep",
       [](const std::string& text, const std::string& name, const std::string& scheme, int level,
          std::optional<int> segments, std::optional<double> threshold, double edge_tolerance,

@@ -940,6 +940,29 @@ class HeadlessTest(unittest.TestCase):
         self.assertEqual(obj.EdgeTolerance, 0.0)
         FreeCAD.closeDocument(doc.Name)
 
+    def test_iges_import_of_free_faces_is_sewn_into_one_closed_mesh(self):
+        """FreeCAD imports UKI60998.igs as a compound of 11 free faces. The part route sews them as
+        `sagitta validate UKI60998.igs` does (one closed solid): the mesh is closed where the faces
+        meet (unsewn: 150 model-boundary edges and 3 T-junctions), every face is certified, and the
+        document's shape is untouched."""
+        path = os.path.join(SHARED, "cad", "step", "UKI60998.igs")
+        if not os.path.exists(path):
+            self.skipTest("shared data absent")
+        doc = FreeCAD.newDocument("IgesSewn")
+        part = doc.addObject("Part::Feature", "Uki60998")
+        part.Shape = Part.read(path)
+        doc.recompute()
+        self.assertEqual((len(part.Shape.Faces), len(part.Shape.Shells)), (11, 0))
+        brep_before = part.Shape.exportBrepToString()
+        obj = SagittaCore.make_tessellation(doc, [(part, [])], scheme="uniform", level=2)
+        self.assertTrue(obj.WholePart)
+        report = SagittaCore.validate_tessellation(obj)
+        self.assertTrue(report["certified"])
+        self.assertEqual([(s["brep_closed"], s["crack_edges"], s["model_boundary_edges"], s["t_junctions"])
+                          for s in report["solids"]], [(True, 0, 0, 0)])
+        self.assertEqual(part.Shape.exportBrepToString(), brep_before, "the source shape was modified")
+        FreeCAD.closeDocument(doc.Name)
+
     def test_fit_sets_the_faces_edge_tolerances_the_tightness_pass_chose(self):
         """Fit of occ22470 (IGES, 18 faces) at 1e-3 of its diagonal: the tightness pass gives three
         trimmed faces tighter edges (FaceEdgeTolerances); the recomputed feature is the mesh the fit

@@ -64,16 +64,17 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <functional>
-#include <tuple>
-#include <cmath>
 #include <limits>
 #include <map>
 #include <memory>
 #include <set>
+#include <sstream>
+#include <tuple>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -2869,6 +2870,23 @@ PartMesh mesh_part_file(const std::string& path, const PartOptions& options) {
 PartMesh mesh_part_brep_string(const std::string& brep_text, const std::string& name, const PartOptions& options) {
   check_scheme(options, name);
   return mesh_shape(read_brep_shape(brep_text, name), name, options);
+}
+
+std::string sew_free_faces_brep_string(const std::string& brep_text, const std::string& name) {
+  const TopoDS_Shape shape = read_brep_shape(brep_text, name);
+  TopTools_IndexedDataMapOfShapeListOfShape edge_faces;
+  TopExp::MapShapesAndAncestors(shape, TopAbs_EDGE, TopAbs_FACE, edge_faces);
+  TopTools_IndexedMapOfShape faces;
+  TopExp::MapShapes(shape, TopAbs_FACE, faces);
+  if (faces.Extent() < 2 || TopExp_Explorer(shape, TopAbs_SHELL).More()) return brep_text;
+  for (int e = 1; e <= edge_faces.Extent(); ++e) {
+    if (edge_faces(e).Extent() > 1) return brep_text;
+  }
+  const TopoDS_Shape sewn = sew_free_faces(shape);
+  if (sewn.IsSame(shape)) return brep_text;
+  std::ostringstream out;
+  BRepTools::Write(sewn, out);
+  return out.str();
 }
 
 PartMesh brepmesh_part_file(const std::string& path, const BRepMeshOptions& options) {

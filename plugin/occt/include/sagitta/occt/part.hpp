@@ -176,11 +176,17 @@ PartMesh mesh_part_file(const std::string& path, const PartOptions& options);
 // The same for an OCCT BREP text (FreeCAD: Part.Shape.exportBrepToString()); `name` names it in messages.
 PartMesh mesh_part_brep_string(const std::string& brep_text, const std::string& name, const PartOptions& options);
 
+// A compound of free faces (every edge on one face: FreeCAD's import of an IGES file) sewn as
+// read_cad_shape sews an IGES file, in the same face order, as BREP text; any other shape's text
+// (solids, shells, faces that share edges, fewer than two faces) is returned unchanged.
+std::string sew_free_faces_brep_string(const std::string& brep_text, const std::string& name);
+
 // Another mesher's mesh of the part, in the same form: OCCT's BRepMesh_IncrementalMesh with these
 // options, each face's triangulation with its nodes' (U, V) (face_to_uv of the node's (u, v); boundary
 // nodes at their loop points) and its loops' chords from the edges' polygons and p-curves, so that
 // certify_part certifies it face by face exactly as it certifies our own (docs/CAD.md, "The peer on
-// whole parts"). Vertices are merged by bit-identical position. PartMesh::seconds is BRepMesh's time
+// whole parts"). Nodes are merged by topology (a B-rep vertex, an edge's parameter), then by
+// bit-identical position. PartMesh::seconds is BRepMesh's time
 // alone. Faces that cannot be taken (no triangulation, no edge parameters, no Bézier form) are
 // listed as skipped with the reason.
 struct BRepMeshOptions {
