@@ -2014,8 +2014,9 @@ PartMesh mesh_shape(const TopoDS_Shape& shape, const std::string& name, const Pa
 // face, nodes with the face's (u, v), edges as Poly_PolygonOnTriangulation with their parameters), in
 // the same PartMesh form as our own, so that certify_part's loops route certifies it face by face.
 
-// Mesh vertices of the triangulations' nodes, merged by bit-identical position: BRepMesh gives a
-// shared edge's nodes the same 3D points on both faces, a seam's two copies and a pole's nodes too.
+// Mesh vertices of the triangulations' nodes: by B-rep vertex (at_corner), by an edge's sample
+// (brepmesh_face), else by bit-identical position (a seam's two copies, a pole's nodes, and a shared
+// edge's nodes where BRepMesh gives both faces the same 3D points).
 class NodeIndex {
  public:
   static constexpr uint32_t kUnset = std::numeric_limits<uint32_t>::max();

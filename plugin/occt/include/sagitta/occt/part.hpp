@@ -186,9 +186,8 @@ std::string sew_free_faces_brep_string(const std::string& brep_text, const std::
 // nodes at their loop points) and its loops' chords from the edges' polygons and p-curves, so that
 // certify_part certifies it face by face exactly as it certifies our own (docs/CAD.md, "The peer on
 // whole parts"). Nodes are merged by topology (a B-rep vertex, an edge's parameter), then by
-// bit-identical position. PartMesh::seconds is BRepMesh's time
-// alone. Faces that cannot be taken (no triangulation, no edge parameters, no Bézier form) are
-// listed as skipped with the reason.
+// bit-identical position. PartMesh::seconds is BRepMesh's time alone. Faces that cannot be taken
+// (no triangulation, no edge parameters, no Bézier form) are listed as skipped with the reason.
 struct BRepMeshOptions {
   double deflection = 1e-3;  // linear deflection (model units, or relative to each edge's size)
   double angle = 0.5;        // angular deflection (radians)
