@@ -459,7 +459,9 @@ TEST(CertifyExternal, MeshInAPlanarModelAcrossTheReferenceEdgesIsCertified) {
     EXPECT_LE(r.hausdorff.lower, lift);
     EXPECT_GE(r.hausdorff.upper, lift);
     EXPECT_LE(r.hausdorff.upper, lift + 2.0 * 1e-3 * diag + 1e-12);
-    if (lift > 0.0) EXPECT_GE(r.hausdorff.lower, 0.99 * lift);
+    if (lift > 0.0) {
+      EXPECT_GE(r.hausdorff.lower, 0.99 * lift);
+    }
   }
 }
 

@@ -73,7 +73,9 @@ TEST(OcctReader, Shell1FacesAndBezierPatches) {
   EXPECT_EQ(cad.faces_tessellated + cad.faces_trimmed, 99);
   EXPECT_GE(cad.faces_trimmed, 1);
   for (const occt::FaceReport& f : cad.faces) {
-    if (f.status == "trimmed") EXPECT_FALSE(f.reason.empty()) << f.name;
+    if (f.status == "trimmed") {
+      EXPECT_FALSE(f.reason.empty()) << f.name;
+    }
   }
 }
 
@@ -159,7 +161,9 @@ TEST(OcctReader, EveryFaceOfBottleAndScrewIsAccountedFor) {
     EXPECT_GT(cad.faces_tessellated, 0) << name;
     for (const occt::FaceReport& f : cad.faces) {
       EXPECT_TRUE(f.status == "tessellated" || f.status == "trimmed" || f.status == "skipped") << f.name;
-      if (f.status != "tessellated") EXPECT_FALSE(f.reason.empty()) << name << " " << f.name;
+      if (f.status != "tessellated") {
+        EXPECT_FALSE(f.reason.empty()) << name << " " << f.name;
+      }
     }
   }
 }
@@ -182,7 +186,9 @@ TEST(OcctReader, StepFaceWithADanglingReferenceIsListedAsSkipped) {
   EXPECT_EQ(cad.faces_tessellated + cad.faces_trimmed + cad.faces_skipped, 10);
   EXPECT_GE(cad.faces_skipped, 1);
   for (const occt::FaceReport& f : cad.faces) {
-    if (f.status != "tessellated") EXPECT_FALSE(f.reason.empty()) << f.name;
+    if (f.status != "tessellated") {
+      EXPECT_FALSE(f.reason.empty()) << f.name;
+    }
   }
 }
 
