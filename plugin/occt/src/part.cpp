@@ -2879,11 +2879,14 @@ std::string sew_free_faces_brep_string(const std::string& brep_text, const std::
   TopExp::MapShapesAndAncestors(shape, TopAbs_EDGE, TopAbs_FACE, edge_faces);
   TopTools_IndexedMapOfShape faces;
   TopExp::MapShapes(shape, TopAbs_FACE, faces);
-  if (faces.Extent() < 2 || TopExp_Explorer(shape, TopAbs_SHELL).More()) return brep_text;
+  if (faces.Extent() < 2) return brep_text;
   for (int e = 1; e <= edge_faces.Extent(); ++e) {
-    if (edge_faces(e).Extent() > 1) return brep_text;
+    // A seam lists its one face twice: only another face makes the edge shared.
+    for (const TopoDS_Shape& f : edge_faces(e)) {
+      if (!f.IsSame(edge_faces(e).First())) return brep_text;
+    }
   }
-  const TopoDS_Shape sewn = sew_free_faces(shape);
+  const TopoDS_Shape sewn = sew_free_faces(shape);  // unchanged where the shape has a shell
   if (sewn.IsSame(shape)) return brep_text;
   std::ostringstream out;
   BRepTools::Write(sewn, out);
