@@ -2233,7 +2233,9 @@ DistanceReport certify_conditioned(const Model& model, const Tessellation& mesh,
   std::vector<Box> patch_boxes(model.patches.size());
   for (size_t p = 0; p < model.patches.size(); ++p) patch_boxes[p] = control_box(model.patches[p]);
   NearPatches near;
-  if (model.patches.size() > 1 && !options.in_domain) {
+  // Leaves may be matched to a neighbouring patch where every patch is the surface's (no domain, or
+  // one that contains its patches whole: an untrimmed face's seams and patch sides).
+  if (model.patches.size() > 1 && (!options.in_domain || options.domain_contains_patches)) {
     near = near_patches(model, mesh, est, patch_boxes);
     match_estimates_to_model(model, mesh, patch_boxes, near, est);
   }

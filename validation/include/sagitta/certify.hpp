@@ -60,7 +60,8 @@ struct CertifyOptions {
   // With in_domain: the domain contains every patch whole (an untrimmed face cut along its patch
   // grid; in_domain then only keeps lower-bound witnesses off the boundary). Mesh->surface may then
   // match a triangle to its corners' projections onto its own patch (a (u, v) triangle inside the
-  // patch lies in the domain), as without in_domain; the other restrictions stay.
+  // patch lies in the domain) and a leaf to its neighbouring patches, as without in_domain; the
+  // other restrictions stay.
   bool domain_contains_patches = false;
   // With in_domain (and not domain_contains_patches): how far the surface over the box [lo, hi] of
   // patch `patch`'s (u, v) may be from the surface over the domain: 0 only when every point of the
