@@ -127,6 +127,32 @@ TEST(Certify, PlanarBilinearPatchIsExact) {
   }
 }
 
+// A flat trapezoid as a bilinear patch: the mesh lies in the surface (distance ~0), but the map is
+// not affine over a triangle, so a leaf's bound is second order in its size and never reaches the
+// refinement floor (1e-12 of the size). Nothing above the floor is seen, so the triangles keep the
+// first pass's bounds: each was refined to the full depth before (4^8 leaves per triangle: the four
+// lofted sides of a drafted pocket took 26-31 s each for 32 triangles).
+TEST(Certify, FlatNonAffinePatchKeepsTheFirstPassBounds) {
+  Model model;
+  BezierPatch p;
+  p.degree_u = 1;
+  p.degree_v = 1;
+  p.points = {Vec3(0, 0, 1), Vec3(0, 12, 1), Vec3(30, 4, 1), Vec3(30, 8, 1)};
+  model.patches.push_back(p);
+  for (int n : {2, 4}) {
+    const Tessellation mesh = uniform(model, n);
+    const DistanceReport r = certify_distance(model, mesh);
+    std::cout << "[flat trapezoid N=" << n << "] [" << r.hausdorff.lower << ", " << r.hausdorff.upper << "], "
+              << r.leaves << " leaves, " << mesh.triangles.size() << " triangles\n";
+    ASSERT_TRUE(r.hausdorff.certified) << r.not_certified_reason << r.coverage_note;
+    EXPECT_LE(r.hausdorff.lower, 1e-12);
+    // Every vertex lies on the plane z = 1 and inside the trapezoid, so the true distance is 0; the
+    // bound is the first pass's, small against the patch (diagonal 32).
+    EXPECT_LT(r.hausdorff.upper, 1e-2);
+    EXPECT_LT(r.leaves, 4096u * mesh.triangles.size());
+  }
+}
+
 // A gentle bump over a square parametrised far from affinely (x = x(u), y = y(v), cubic and
 // monotone): the triangles' (u, v) drift along the surface from their positions, so the surface
 // over a leaf straddling a mesh edge is nearest to two triangles. Matched to one, the

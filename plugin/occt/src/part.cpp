@@ -1512,22 +1512,103 @@ std::array<double, 9> corner_key(const PartBuilder& b, std::array<uint32_t, 3> t
   return key;
 }
 
+// How far x lies from the surface point e along the surface's normal there (the whole distance
+// where the normal is not defined): a chord cutting through the surface counts, the slide of a
+// rational parametrisation's (U, V) midpoint along the surface does not.
+double across_surface(const SurfacePointEval& e, const Vec3& x) {
+  const Vec3 n = glm::cross(e.du, e.dv), d = x - e.position;
+  const double length = glm::length(n);
+  return length > 0.0 ? std::abs(glm::dot(d, n)) / length : glm::length(d);
+}
+
+// The surface point of the face at (U, V) with its patch's derivatives (eval_uv's point).
+SurfacePointEval eval_uv_with_derivatives(const FaceGeometry& g, const Vec2& unwrapped) {
+  const Vec2 UV = wrap_uv(g, unwrapped).first;
+  const auto [p, st] = locate_patch(g, UV.x, UV.y);
+  return evaluate_with_derivatives(g.patches[p], clamp(st.x, 0.0, 1.0), clamp(st.y, 0.0, 1.0));
+}
+
+// The largest distance (across the surface) between the midpoint of an edge of the scheme's
+// tessellation of the face's patches and the surface at the edge's (U, V) midpoint: the density
+// the scheme chose for the face.
+double scheme_edge_deviation(const FaceGeometry& g) {
+  const Tessellation& m = g.scheme;
+  if (m.triangle_patch.size() != m.triangles.size() || m.triangle_uv.size() != m.triangles.size()) return 0.0;
+  double worst = 0.0;
+  for (size_t t = 0; t < m.triangles.size(); ++t) {
+    const BezierPatch& patch = g.patches[m.triangle_patch[t]];
+    for (int k = 0; k < 3; ++k) {
+      // In the patch's own (s, t): a vertex shared across a seam has one (U, V) for both sides.
+      const Vec2 st = 0.5 * (m.triangle_uv[t][k] + m.triangle_uv[t][(k + 1) % 3]);
+      const Vec3 mid = 0.5 * (m.positions[m.triangles[t][k]] + m.positions[m.triangles[t][(k + 1) % 3]]);
+      worst = std::max(worst, across_surface(evaluate_with_derivatives(patch, st.x, st.y), mid));
+    }
+  }
+  return worst;
+}
+
+// Adds the (U, V) midpoint of every unconstrained edge between input points of a CDT triangle inside
+// the loops whose midpoint is farther than `limit` across the surface there (see cdt_without_ears).
+void split_deviating_edges(PartBuilder& b, const FaceGeometry& g,
+                           const std::vector<std::array<uint32_t, 2>>& constraints, const detail::CdtResult& cdt,
+                           double limit, std::vector<Vec2>& points, std::vector<uint32_t>& vertex) {
+  const Vec2 scale(g.cu, g.cv);
+  const size_t inputs = points.size();
+  std::set<std::pair<uint32_t, uint32_t>> fixed, done;
+  for (const auto& c : constraints) {
+    const uint32_t a = cdt.merged[c[0]], e = cdt.merged[c[1]];
+    fixed.insert({std::min(a, e), std::max(a, e)});
+  }
+  std::vector<uint32_t> point_vertex(cdt.points.size(), std::numeric_limits<uint32_t>::max());
+  for (size_t k = 0; k < inputs; ++k) point_vertex[cdt.merged[k]] = vertex[k];
+  for (size_t c = 0; c < cdt.triangles.size(); ++c) {
+    if (!cdt.inside[c]) continue;
+    const auto& t = cdt.triangles[c];
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = std::min(t[k], t[(k + 1) % 3]), e = std::max(t[k], t[(k + 1) % 3]);
+      if (point_vertex[a] == std::numeric_limits<uint32_t>::max() ||
+          point_vertex[e] == std::numeric_limits<uint32_t>::max() || fixed.count({a, e}) || !done.insert({a, e}).second)
+        continue;
+      const Vec2 q = 0.5 * (cdt.points[a] + cdt.points[e]);
+      const SurfacePointEval on_surface = eval_uv_with_derivatives(g, q / scale);
+      const Vec3 mid = 0.5 * (b.out.mesh.positions[point_vertex[a]] + b.out.mesh.positions[point_vertex[e]]);
+      if (!(across_surface(on_surface, mid) > limit)) continue;
+      points.push_back(q);
+      vertex.push_back(b.add_vertex(on_surface.position));
+    }
+  }
+}
+
 // The CDT of the face's points and constraints (the first segments.size() are the loop chords).
 // An "ear": a CDT triangle whose three corners are samples of one edge. Both faces of a tangent edge
 // (a fillet meeting a plane) may make the same ear, and their triangles would then coincide: an ear
 // that did so in an earlier pass (b.split_ears) gets a point at its centre (on the surface), and
 // the CDT is made again (at most 4 times). Other ears stay (splitting every ear of a plane's outer
 // arcs cost UKI60998 a third more triangles).
+//
+// An unconstrained CDT edge whose midpoint is farther across the surface (along its normal) at its
+// (U, V) midpoint than `deviation_limit` gets that midpoint (on the surface) as a new point, and the CDT is made again
+// (at most kDeviationRounds times): where no scheme vertex lies inside the loops (a long rod's
+// cylinder, one cell along its length, around a cross hole in its middle) the CDT would otherwise
+// join loop points on opposite sides by chords through the axis.
 detail::CdtResult cdt_without_ears(PartBuilder& b, const FaceGeometry& g,
                                    const std::vector<std::array<uint32_t, 2>>& segments,
                                    const std::vector<int>& segment_edge,
                                    const std::vector<std::array<uint32_t, 2>>& constraints, std::vector<Vec2>& points,
-                                   std::vector<uint32_t>& vertex) {
+                                   std::vector<uint32_t>& vertex, double deviation_limit) {
+  constexpr int kEarRounds = 4, kDeviationRounds = 12;
   const Vec2 scale(g.cu, g.cv);
+  const size_t point_budget = 4 * points.size() + 4096;
   detail::CdtResult cdt;
   for (int round = 0;; ++round) {
     cdt = detail::constrained_delaunay(points, constraints, segments.size());
-    if (round == 4) break;
+    if (round == kDeviationRounds) break;
+    const size_t before_deviation = points.size();
+    if (points.size() < point_budget) split_deviating_edges(b, g, constraints, cdt, deviation_limit, points, vertex);
+    if (round >= kEarRounds) {
+      if (points.size() == before_deviation) break;
+      continue;
+    }
     std::vector<std::vector<int>> point_edges(cdt.points.size());
     for (size_t c = 0; c < segments.size(); ++c) {
       for (uint32_t end : segments[c]) point_edges[cdt.merged[end]].push_back(segment_edge[c]);
@@ -1548,7 +1629,7 @@ detail::CdtResult cdt_without_ears(PartBuilder& b, const FaceGeometry& g,
         break;
       }
     }
-    if (points.size() == before) break;
+    if (points.size() == before && points.size() == before_deviation) break;
   }
   return cdt;
 }
@@ -1632,7 +1713,24 @@ bool mesh_face(PartBuilder& b, const FaceGeometry& g, PartFace& pf) {
     kept_keys.insert(key);
   }
   add_free_points(b, g, grid, sm, pf, points, vertex);
-  const detail::CdtResult cdt = cdt_without_ears(b, g, segments, segment_edge, constraints, points, vertex);
+  // A CDT edge is split only where it cuts across the surface by more than four times what the
+  // scheme's own edges or the loops' chords do (measured alike: midpoint against the surface at the
+  // (U, V) midpoint, along its normal), or the edges' chord tolerance (the fit sets it near its
+  // target), and 1e-9 of the face's extent (planes): a chord across the face, not a cell's chord
+  // (1.5 times split so many edges near the loops that the fit's per-face densities and the
+  // slivers' bounds on bug24595 came out worse).
+  double extent = 0.0, chord_deviation = 0.0;
+  for (uint32_t v : vertex)
+    extent = std::max(extent, glm::length(b.out.mesh.positions[v] - b.out.mesh.positions[vertex[0]]));
+  for (const auto& [i, k] : segments) {
+    const Vec3 mid = 0.5 * (b.out.mesh.positions[vertex[i]] + b.out.mesh.positions[vertex[k]]);
+    chord_deviation = std::max(chord_deviation,
+                               across_surface(eval_uv_with_derivatives(g, 0.5 * (points[i] + points[k]) / scale), mid));
+  }
+  const double deviation_limit =
+      std::max({4.0 * scheme_edge_deviation(g), 4.0 * chord_deviation, b.options.edge_tolerance, 1e-9 * extent});
+  const detail::CdtResult cdt =
+      cdt_without_ears(b, g, segments, segment_edge, constraints, points, vertex, deviation_limit);
   for (size_t k = points.size(); k < cdt.points.size(); ++k) vertex.push_back(b.add_vertex(eval_uv(g, cdt.points[k] / scale)));
   record_crossings(b, loop, segments, segment_edge, cdt, points.size());
   // The scheme's kept triangles as the scheme made them, then the CDT's faces inside the loops

@@ -753,6 +753,32 @@ TEST(PartBruteForceCones, WholeConeFromBRepMeshIsBoundedAcrossItsPatchSides) {
   EXPECT_EQ(brute.faces_checked, 1);
 }
 
+// A rod 500 long and 1 across with a flat and a cross hole at its middle: the cylinder's uniform
+// grid is one cell along its length, so no scheme vertex lies near the hole, and the CDT of the
+// face's loops joined the hole's rims on opposite sides by chords through the axis (certified
+// [0.8497, 0.8784], more than the rod's radius). Those edges are now split where they cut across
+// the surface by more than four times what the scheme's own edges do; the bounds hold against
+// OCCT's face.
+TEST(PartBruteForceCdt, LongRodsCrossHoleIsNotJoinedThroughTheAxis) {
+  TopoDS_Shape rod = BRepPrimAPI_MakeCylinder(0.5, 500.0).Shape();
+  rod = BRepAlgoAPI_Cut(rod, BRepPrimAPI_MakeBox(gp_Pnt(0.35, -1.0, 230.0), 2.0, 2.0, 40.0).Shape()).Shape();
+  const gp_Ax2 across(gp_Pnt(0.0, -1.5, 250.0), gp_Dir(0, 1, 0));
+  rod = BRepAlgoAPI_Cut(rod, BRepPrimAPI_MakeCylinder(across, 0.2, 3.0).Shape()).Shape();
+  const std::string path = testing::TempDir() + "/sagitta_long_rod.brep";
+  ASSERT_TRUE(BRepTools::Write(rod, path.c_str()));
+  const OcctPart occt_part = read_part(path);
+  const occt::PartMesh part = our_mesh(path);
+  const app::PartCertificate cert = app::certify_part(part);
+  for (const app::FaceCertificate& f : cert.faces)
+    EXPECT_TRUE(f.certified) << part.faces[static_cast<size_t>(f.face)].name << ": " << f.reason;
+  // Within a fifth of the rod's radius (0.077 with edges split down to four times the scheme's
+  // 0.017); it was 0.85.
+  ASSERT_TRUE(cert.all_certified);
+  EXPECT_LT(cert.distance.hausdorff.upper, 0.1);
+  const BruteForce brute = expect_bounds_hold(occt_part, part, cert, "long rod");
+  EXPECT_EQ(brute.faces_checked, static_cast<int>(part.faces.size()));
+}
+
 // Two holes tangent to each other in a plate, written as STEP and read back: each plane's loops
 // touch themselves at the point where the circles meet, one vertex (tolerance 2.8e-5). BRepMesh
 // puts a node of each circle there, one mesh vertex in space, and a triangle between them has two
